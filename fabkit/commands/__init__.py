@@ -1,0 +1,1 @@
+"""One module per `fabkit` subcommand (see fabkit/cli.py for the contract)."""

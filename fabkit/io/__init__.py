@@ -1,0 +1,1 @@
+"""Readers and writers, with typed entry points (`load_obj`, `load_fold`, ...)."""
