@@ -1,0 +1,63 @@
+"""The HTML report is self-contained and renders its plots in a real headless browser."""
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fabkit.report.html import write_report_html
+
+
+def _summary(out: Path) -> dict:
+    it = np.arange(40)
+    history = [{"iteration": int(i), "max_defect": float(1e-2 * 0.6 ** i), "max_planarity": float(3e-3 * 0.7 ** i)}
+               for i in it]
+    q = np.linspace([0, -1.6, 1.6, -1.6, -1.6, 0], [0.4, -1.2, 1.4, -1.8, -1.5, 0.3], 25)
+    (out / "path.json").write_text(json.dumps({"waypoints": [{"q": list(r)} for r in q]}))
+    (out / "check.json").write_text(json.dumps({"ok": True, "clearance": list(np.linspace(0.05, 0.02, 25)),
+                                                "clearance_limit_m": 0.01}))
+    return {"total_seconds": 1.5, "stages": [
+        {"name": "relax", "status": "pass", "seconds": 0.4, "measure": "max|defect| 1e-12", "tolerance": "1e-8",
+         "message": "", "report": {"history": history, "converged": True}},
+        {"name": "check", "status": "fail", "seconds": 0.1, "measure": "", "tolerance": "", "message": "x<y>",
+         "report": {"ok": False}},
+    ]}
+
+
+def test_report_is_self_contained(tmp_path):
+    page = write_report_html(tmp_path, _summary(tmp_path)).read_text()
+    assert page.startswith("<!doctype html>")
+    # no network: no external URLs in src/href, images embedded
+    assert not re.search(r"""(src|href)=['"]https?://""", page)
+    assert page.count("data:image/png;base64,") == 3  # relax history, joints, clearance
+    assert "x&lt;y&gt;" in page  # stage messages are escaped
+    assert "<a href='path.json'>" in page
+
+
+def _chromium() -> str | None:
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(_chromium() is None, reason="Debian chromium not installed (scripts/system-deps.sh installs it)")
+def test_report_renders_plots_in_chromium(tmp_path):
+    write_report_html(tmp_path, _summary(tmp_path))
+    shot = tmp_path / "shot.png"
+    with tempfile.TemporaryDirectory() as profile:
+        subprocess.run([_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                        "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                        f"--user-data-dir={profile}", "--window-size=1200,2400", f"--screenshot={shot}",
+                        (tmp_path / "report.html").as_uri()],
+                       check=True, timeout=90, capture_output=True)
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(shot)[:, :, :3]
+    # matplotlib's first two line colours (#1f77b4 blue, #ff7f0e orange) must appear: the plots rendered
+    blue = np.all(np.abs(img - np.array([0x1f, 0x77, 0xb4]) / 255) < 0.06, axis=2).sum()
+    orange = np.all(np.abs(img - np.array([0xff, 0x7f, 0x0e]) / 255) < 0.06, axis=2).sum()
+    assert blue > 200 and orange > 200, (blue, orange)
