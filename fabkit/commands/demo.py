@@ -177,7 +177,7 @@ def run(args) -> int:
         if failed_upstream:
             dry.status, dry.message = "skipped", "needs an earlier stage"
         else:
-            _dry_run(dry, reports / "send.json")
+            _dry_run(dry, reports / "send.json", args.cell)
             _describe(dry)
         stages.append(dry)
     total = time.perf_counter() - t_all
@@ -203,14 +203,14 @@ def run(args) -> int:
     return 1 if any(s.status in ("fail", "error") for s in stages) else 0
 
 
-def _dry_run(stage: Stage, report_path: Path) -> None:
+def _dry_run(stage: Stage, report_path: Path, cell: str) -> None:
     """Start the controller stand-in on a free loopback address, send, verify, shut it down."""
     if not (_subcommand_exists("ursim") and _subcommand_exists("send")):
         stage.status, stage.message = "skipped", "not built yet"
         return
     from fabkit.commands._dryrun import run_dry  # written with the sender
 
-    run_dry(stage, report_path, _run_stage)
+    run_dry(stage, report_path, _run_stage, cell)
 
 
 def _print_table(stages: list[Stage], total: float, out: Path) -> None:

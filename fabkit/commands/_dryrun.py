@@ -1,0 +1,80 @@
+"""Dry run for `fabkit demo`: controller stand-in on a free loopback address, `fabkit send`, shut down.
+
+The stand-in runs in its own process (ur_rtde's constructors hold the GIL, so it can't share a
+process with the client). Every wait is bounded; the stand-in is always terminated.
+"""
+from __future__ import annotations
+
+import contextlib
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+UR_PORTS = (30004, 29999, 30001, 30002, 30003)
+
+
+def free_loopback_address(first: int = 2, last: int = 250) -> str:
+    """A 127.0.0.x address on which every UR port is free right now."""
+    for x in range(first, last):
+        host = f"127.0.0.{x}"
+        socks = []
+        try:
+            for port in UR_PORTS:
+                s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+                socks.append(s)
+                s.bind((host, port))
+            return host
+        except OSError:
+            continue
+        finally:
+            for s in socks:
+                s.close()
+    raise RuntimeError("no loopback address with free UR ports (127.0.0.2-250)")
+
+
+def wait_for_dashboard(host: str, timeout: float = 20.0) -> bool:
+    """True once the stand-in's dashboard (port 29999) greets us, False after `timeout` seconds."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        with contextlib.suppress(OSError):
+            with socket.create_connection((host, 29999), timeout=1.0) as s:
+                s.settimeout(2.0)
+                if s.recv(256):
+                    return True
+        time.sleep(0.1)
+    return False
+
+
+def start_standin(host: str, cell: str | None, log: Path) -> subprocess.Popen:
+    argv = [sys.executable, "-m", "fabkit", "ursim", "--host", host]
+    if cell:
+        argv += ["--cell", cell]
+    fh = open(log, "w")
+    return subprocess.Popen(argv, stdout=fh, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+
+
+def stop_standin(proc: subprocess.Popen, timeout: float = 5.0) -> None:
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=timeout)
+
+
+def run_dry(stage, report_path: Path, run_stage, cell: str | None) -> None:
+    """Fill `stage` (a demo Stage for `send`) by sending its toolpath to a fresh stand-in."""
+    out = report_path.parent.parent
+    host = free_loopback_address()
+    proc = start_standin(host, cell, out / "ursim.log")
+    try:
+        if not wait_for_dashboard(host):
+            stage.status, stage.message = "error", f"controller stand-in did not start on {host} (see ursim.log)"
+            return
+        stage.argv = [a for a in stage.argv] + ["--host", host, "--power-on", "--log", str(out / "send.log")]
+        run_stage(stage, report_path)
+    finally:
+        stop_standin(proc)
