@@ -1,0 +1,445 @@
+"""FOLD 1.2 reader and writer (the one boundary where millimetres/degrees become metres/radians).
+
+Written by hand: FOLD is plain JSON and the only Python FOLD package on PyPI is a box-pleating
+tool; the reference implementation is JavaScript (npm `fold`), which the tests use to read our files.
+
+Layout we write (design.md, reference §1):
+
+- key frame = crease pattern: `frame_classes ["creasePattern"]`, `frame_unit "mm"`,
+  `vertices_coords`, `edges_vertices`, `edges_assignment`, `edges_foldAngle` (degrees, valley +,
+  `null` for unknown), `faces_vertices` (counter-clockwise polygons as in the mesh);
+- every fold state is a `file_frames` child with `frame_parent: 0`, `frame_inherit: true`,
+  `frame_classes ["foldedForm"]`, `frame_attributes ["3D"]`, overriding `vertices_coords` (and
+  `edges_foldAngle` when the state has its own angles);
+- `file_spec 1.2`, `file_creator "fabkit"`, `file_classes ["animation"]` when there are frames;
+- project data as `faces_fabkit:<name>`, `vertices_fabkit:<name>`, `edges_fabkit:<name>`,
+  `file_fabkit:<name>`, `frame_fabkit:<name>`.
+
+Reading is lenient where the spec allows (2D coordinates, any `frame_unit`, `edges_foldAngles` of
+spec 1.0, `null` angles, missing edges derived from faces) and strict where a mistake would bend
+metal (types, lengths, indices, assignments, angle signs); every error is one line naming the file
+and the element. Remarks made while reading (unit assumptions, a pattern rotated into z = 0) are in
+`model.notes`.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from typing import Any, Callable
+
+import numpy as np
+
+from fabkit.errors import InputError, MeshError
+from fabkit.fold import ASSIGNMENTS, FoldFrame, FoldModel, validate_fold_model
+from fabkit.io.atomic import atomic_write
+from fabkit.io.obj import read_text
+
+__all__ = ["load_fold", "save_fold", "parse_fold", "fold_to_json", "UNIT_TO_METRES", "FOLD_SPEC"]
+
+FOLD_SPEC = 1.2
+WRITE_UNIT = "mm"
+
+#: FOLD `frame_unit` -> metres as an exact (numerator, denominator) pair: metres = value * num / den.
+UNIT_TO_METRES: dict[str, tuple[float, float]] = {
+    "m": (1.0, 1.0), "cm": (1.0, 100.0), "mm": (1.0, 1000.0), "um": (1.0, 1e6), "nm": (1.0, 1e9),
+    "in": (254.0, 10000.0), "pt": (254.0, 720000.0), "unit": (1.0, 1.0),
+}
+
+_PREFIX = "fabkit:"
+_KEY_TOPOLOGY = ("edges_vertices", "faces_vertices")
+
+
+# ---- exact unit conversion ----------------------------------------------------------------------
+def _exact_inverse(x: np.ndarray, forward: Callable[[np.ndarray], np.ndarray],
+                   inverse: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """`forward(x)`, nudged by one ulp where that makes `inverse(y) == x` bitwise.
+
+    A file value y = x * 1000 does not always read back as exactly x (y / 1000 rounds); trying the
+    neighbouring doubles of y makes the round trip exact for (nearly) every x and never worse than
+    one ulp. Non-finite values pass through.
+    """
+    y = forward(x)
+    ok = inverse(y) == x
+    for direction in (np.inf, -np.inf):
+        if np.all(ok | ~np.isfinite(x)):
+            break
+        cand = np.nextafter(y, direction)
+        better = ~ok & (inverse(cand) == x)
+        y = np.where(better, cand, y)
+        ok |= better
+    return y
+
+
+def _to_file_mm(V: np.ndarray) -> np.ndarray:
+    num, den = UNIT_TO_METRES[WRITE_UNIT]
+    return _exact_inverse(V, lambda x: x * den / num, lambda y: y * num / den)
+
+
+def _to_file_degrees(a: np.ndarray) -> np.ndarray:
+    return _exact_inverse(a, np.degrees, np.radians)
+
+
+# ---- writing -------------------------------------------------------------------------------------
+def _jsonable_array(arr: np.ndarray) -> list:
+    """Array -> nested lists with NaN as None (JSON null)."""
+    arr = np.asarray(arr)
+    if arr.dtype.kind == "f":
+        obj = arr.astype(object)
+        obj[np.isnan(arr)] = None
+        return obj.tolist()
+    return arr.tolist()
+
+
+def _key(kind: str, name: str) -> str:
+    """`faces` + `strip` -> `faces_fabkit:strip`; names that already contain ':' are kept verbatim."""
+    return name if ":" in name else f"{kind}_{_PREFIX}{name}"
+
+
+def fold_to_json(model: FoldModel) -> dict[str, Any]:
+    """The FOLD 1.2 dictionary of a model (millimetres, degrees)."""
+    d: dict[str, Any] = {
+        "file_spec": FOLD_SPEC,
+        "file_creator": "fabkit",
+        "file_classes": ["animation"] if model.frames else ["singleModel"],
+    }
+    if model.title:
+        d["file_title"] = model.title
+    for name, value in model.file_data.items():
+        d[_key("file", name)] = value
+    if model.classes:
+        d["frame_classes"] = list(model.classes)
+    if model.attributes:
+        d["frame_attributes"] = list(model.attributes)
+    d["frame_unit"] = WRITE_UNIT
+    d["vertices_coords"] = _to_file_mm(model.vertices_coords).tolist()
+    d["edges_vertices"] = model.edges_vertices.tolist()
+    d["edges_assignment"] = model.edges_assignment.tolist()
+    d["edges_foldAngle"] = _jsonable_array(_to_file_degrees(model.edges_fold_angle))
+    d["faces_vertices"] = [list(f) for f in model.faces_vertices]
+    for kind, data in (("vertices", model.vertices_data), ("edges", model.edges_data), ("faces", model.faces_data)):
+        for name, arr in data.items():
+            d[_key(kind, name)] = _jsonable_array(arr)
+    if model.frames:
+        d["file_frames"] = [_frame_json(f) for f in model.frames]
+    return d
+
+
+def _frame_json(frame: FoldFrame) -> dict[str, Any]:
+    d: dict[str, Any] = {
+        "frame_parent": 0,
+        "frame_inherit": True,
+        "frame_classes": list(frame.classes),
+        "frame_attributes": list(frame.attributes),
+        "vertices_coords": _to_file_mm(frame.vertices_coords).tolist(),
+    }
+    if frame.edges_fold_angle is not None:
+        d["edges_foldAngle"] = _jsonable_array(_to_file_degrees(frame.edges_fold_angle))
+    for name, value in frame.data.items():
+        d[_key("frame", name)] = _jsonable_array(value) if isinstance(value, np.ndarray) else value
+    return d
+
+
+def _dump(d: dict[str, Any], indent: str = "") -> str:
+    """JSON with one top-level key per line and one array element per line (readable, diffable)."""
+    lines = []
+    for k, v in d.items():
+        if k == "file_frames":
+            body = (",\n" + indent + "  ").join(_dump(f, indent + "  ") for f in v)
+            lines.append(f'{indent} {json.dumps(k)}: [\n{indent}  {body}\n{indent} ]')
+        elif isinstance(v, list) and v and isinstance(v[0], list):
+            rows = (",\n" + indent + "  ").join(json.dumps(r, separators=(",", ":"), allow_nan=False) for r in v)
+            lines.append(f'{indent} {json.dumps(k)}: [\n{indent}  {rows}\n{indent} ]')
+        else:
+            lines.append(f"{indent} {json.dumps(k)}: {json.dumps(v, separators=(',', ':'), allow_nan=False)}")
+    return "{\n" + ",\n".join(lines) + "\n" + indent + "}"
+
+
+def save_fold(model: FoldModel, path: str | os.PathLike) -> None:
+    """Validate `model` and write it as FOLD 1.2 (frame_unit mm, degrees) atomically."""
+    validate_fold_model(model, source=str(path))
+    text = _dump(fold_to_json(model)) + "\n"
+    with atomic_write(path) as fh:
+        fh.write(text)
+
+
+# ---- reading: typed field parsers ----------------------------------------------------------------
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _is_index(x: Any) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _list(value: Any, key: str, source: str) -> list:
+    if not isinstance(value, list):
+        raise InputError(f"{key} must be a list, got {type(value).__name__}", source=source)
+    return value
+
+
+def _coords(value: Any, key: str, scale: tuple[float, float], source: str) -> np.ndarray:
+    rows = _list(value, key, source)
+    out = np.zeros((len(rows), 3))
+    for i, r in enumerate(rows):
+        if not isinstance(r, list) or len(r) not in (2, 3) or not all(_is_number(c) for c in r):
+            raise InputError(f"{key}[{i}] is {_short(r)}: a vertex needs 2 or 3 numbers", source=source)
+        out[i, :len(r)] = r
+    bad = ~np.all(np.isfinite(out), axis=1)
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(f"{key}[{i}] is {_short(rows[i])}: coordinates must be finite", source=source)
+    num, den = scale
+    return out * num / den
+
+
+def _index_rows(value: Any, key: str, width: int | None, source: str) -> list[list[int]]:
+    rows = _list(value, key, source)
+    for i, r in enumerate(rows):
+        if not isinstance(r, list) or (width is not None and len(r) != width) or not all(_is_index(c) for c in r):
+            need = f"{width} vertex indices" if width else "a list of vertex indices"
+            raise InputError(f"{key}[{i}] is {_short(r)}: expected {need} (integers)", source=source)
+    return rows
+
+
+def _assignments(value: Any, key: str, source: str) -> np.ndarray:
+    rows = _list(value, key, source)
+    for i, a in enumerate(rows):
+        if not isinstance(a, str) or a not in ASSIGNMENTS or len(a) != 1:
+            raise InputError(f"{key}[{i}] is {_short(a)}: assignment must be one of B, M, V, F, J, U, C",
+                             source=source)
+    return np.array(rows, dtype="<U1").reshape(-1)
+
+
+def _angles(value: Any, key: str, source: str) -> np.ndarray:
+    rows = _list(value, key, source)
+    out = np.full(len(rows), np.nan)
+    for i, a in enumerate(rows):
+        if a is None:
+            continue
+        if not _is_number(a) or not math.isfinite(a):
+            raise InputError(f"{key}[{i}] is {_short(a)}: a fold angle is a finite number of degrees or null",
+                             source=source)
+        if abs(a) > 180:
+            raise InputError(f"{key}[{i}] is {a} deg, outside [-180, 180]", source=source)
+        out[i] = a
+    return np.radians(out)
+
+
+def _data_array(value: Any, key: str, source: str) -> np.ndarray:
+    rows = _list(value, key, source)
+    if rows and all(r is None or _is_number(r) for r in rows) and any(r is None for r in rows):
+        return np.array([np.nan if r is None else r for r in rows], dtype=np.float64)
+    try:
+        arr = np.array(rows)
+    except ValueError:
+        raise InputError(f"{key} is not a regular array", source=source) from None
+    if arr.dtype == object:
+        raise InputError(f"{key} mixes types or lengths; project data must be a regular array", source=source)
+    return arr
+
+
+def _short(x: Any) -> str:
+    s = json.dumps(x) if not isinstance(x, float) or math.isfinite(x) else str(x)
+    return s if len(s) <= 40 else s[:37] + "..."
+
+
+def _strings(value: Any, key: str, source: str) -> tuple[str, ...]:
+    if isinstance(value, str):
+        return (value,)
+    rows = _list(value, key, source)
+    if not all(isinstance(s, str) for s in rows):
+        raise InputError(f"{key} must be a list of strings", source=source)
+    return tuple(rows)
+
+
+def _unit(d: dict, where: str, default: str, source: str) -> str:
+    unit = d.get("frame_unit", default)
+    if not isinstance(unit, str) or unit not in UNIT_TO_METRES:
+        raise InputError(f"{where}frame_unit {_short(unit)} is not a FOLD unit "
+                         f"({', '.join(UNIT_TO_METRES)})", source=source)
+    return unit
+
+
+# ---- reading: the model -------------------------------------------------------------------------
+def _edges_from_faces(faces: list[list[int]]) -> np.ndarray:
+    """Unique face sides, sorted lo < hi (FOLD convert.faces_vertices_to_edges, mesh edge order)."""
+    pairs = {(min(a, b), max(a, b)) for f in faces for a, b in zip(f, f[1:] + f[:1])}
+    return np.array(sorted(pairs), dtype=np.int64).reshape(-1, 2)
+
+
+def _default_assignment(edges: np.ndarray, faces: list[list[int]]) -> np.ndarray:
+    """Edges on one face -> B, else U (used when a file has no edges_assignment)."""
+    count: dict[tuple[int, int], int] = {}
+    for f in faces:
+        for a, b in zip(f, f[1:] + f[:1]):
+            k = (min(a, b), max(a, b))
+            count[k] = count.get(k, 0) + 1
+    return np.array(["B" if count.get((min(a, b), max(a, b)), 0) == 1 else "U" for a, b in edges.tolist()],
+                    dtype="<U1").reshape(-1)
+
+
+def _namespaced(d: dict, kind: str, source: str) -> dict[str, np.ndarray]:
+    prefix = f"{kind}_{_PREFIX}"
+    return {k[len(prefix):]: _data_array(v, k, source) for k, v in d.items() if k.startswith(prefix)}
+
+
+def _plane_rotation(V: np.ndarray, faces: list[list[int]]) -> tuple[np.ndarray | None, str]:
+    """Rotation taking a pattern that lies in the x = 0 or y = 0 plane into z = 0 (faces turned to +z).
+
+    Some exporters (Origami Simulator's pleat patterns) store a flat crease pattern in the XZ plane.
+    Returns an exact signed permutation matrix, or None when the pattern is not such a case.
+    """
+    if len(V) == 0 or np.all(V[:, 2] == 0.0):
+        return None, ""
+    size = float(np.ptp(V, axis=0).max()) or 1.0
+    for axis, name in ((1, "XZ plane (y = 0)"), (0, "YZ plane (x = 0)")):
+        if np.max(np.abs(V[:, axis])) <= 1e-12 * size:
+            normal = np.zeros(3)
+            for f in faces:
+                P = V[f]
+                normal += np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+            s = 1.0 if normal[axis] >= 0 else -1.0
+            if axis == 1:  # about x: s*y -> +z, i.e. (x, y, z) -> (x, -s z, s y)
+                R = np.array([[1.0, 0, 0], [0, 0, -s], [0, s, 0]])
+            else:          # about y: s*x -> +z, i.e. (x, y, z) -> (-s z, y, s x)
+                R = np.array([[0, 0, -s], [0, 1.0, 0], [s, 0, 0]])
+            return R, name
+    return None, ""
+
+
+def _rotate(V: np.ndarray, R: np.ndarray) -> np.ndarray:
+    W = V @ R.T
+    W[:, 2] = 0.0 if np.all(np.abs(W[:, 2]) <= 1e-12 * (np.ptp(W, axis=0).max() or 1.0)) else W[:, 2]
+    return W
+
+
+def parse_fold(d: Any, source: str = "<fold>") -> FoldModel:
+    """A FOLD dictionary (as loaded from JSON) -> validated `FoldModel` in metres/radians."""
+    if not isinstance(d, dict):
+        raise InputError(f"a FOLD file is a JSON object, got {type(d).__name__}", source=source)
+    notes: list[str] = []
+    spec = d.get("file_spec")
+    if spec is None:
+        notes.append("no file_spec; read as FOLD 1.2")
+    elif not _is_number(spec):
+        raise InputError(f"file_spec {_short(spec)} must be a number", source=source)
+    elif spec > FOLD_SPEC:
+        notes.append(f"file_spec {spec} is newer than {FOLD_SPEC}; unknown fields ignored")
+    unit = _unit(d, "", "unit", source)
+    if "frame_unit" not in d or unit == "unit":
+        notes.append("frame_unit 'unit' has no physical size; coordinates taken as metres")
+    if "vertices_coords" not in d:
+        raise InputError("no vertices_coords (a FOLD file needs vertex coordinates)", source=source)
+    if "faces_vertices" not in d:
+        raise InputError("no faces_vertices (fabkit and Origami Simulator need faces)", source=source)
+    scale = UNIT_TO_METRES[unit]
+    V = _coords(d["vertices_coords"], "vertices_coords", scale, source)
+    faces = _index_rows(d["faces_vertices"], "faces_vertices", None, source)
+    if "edges_vertices" in d:
+        edges = np.array(_index_rows(d["edges_vertices"], "edges_vertices", 2, source), dtype=np.int64).reshape(-1, 2)
+    else:
+        edges = _edges_from_faces(faces)
+        notes.append("no edges_vertices; edges derived from faces_vertices")
+    if "edges_assignment" in d:
+        assignment = _assignments(d["edges_assignment"], "edges_assignment", source)
+    else:
+        assignment = _default_assignment(edges, faces)
+        notes.append("no edges_assignment; one-face edges set to B, others to U")
+    angle_key = "edges_foldAngle" if "edges_foldAngle" in d else "edges_foldAngles" if "edges_foldAngles" in d else None
+    if angle_key == "edges_foldAngles":
+        notes.append("edges_foldAngles (FOLD 1.0 name) read as edges_foldAngle")
+    if angle_key:
+        angle = _angles(d[angle_key], angle_key, source)
+    else:
+        angle = np.where(np.isin(assignment, ["B", "F", "J", "C"]), 0.0, np.nan)
+    frames = _parse_frames(d, V, unit, faces, edges, source)
+    R, plane = _plane_rotation(V, faces)
+    if R is not None:
+        V = _rotate(V, R)
+        frames = [FoldFrame(_rotate(f.vertices_coords, R), f.edges_fold_angle, f.classes, f.data, f.attributes)
+                  for f in frames]
+        notes.append(f"flat pattern in the {plane} rotated into z = 0 (every frame rotated alike)")
+    file_data = {k[len("file_" + _PREFIX):] if k.startswith("file_" + _PREFIX) else k: v
+                 for k, v in d.items() if k.startswith("file_" + _PREFIX) or (":" in k and "_" + _PREFIX not in k)}
+    title = d.get("file_title", d.get("frame_title", ""))
+    model = FoldModel(
+        vertices_coords=V, faces_vertices=faces, edges_vertices=edges, edges_assignment=assignment,
+        edges_fold_angle=angle,
+        faces_data=_namespaced(d, "faces", source), vertices_data=_namespaced(d, "vertices", source),
+        edges_data=_namespaced(d, "edges", source), file_data=file_data, frames=tuple(frames), unit=unit,
+        classes=_strings(d.get("frame_classes", []), "frame_classes", source),
+        creator=str(d.get("file_creator", "")), title=title if isinstance(title, str) else str(title),
+        attributes=_strings(d.get("frame_attributes", []), "frame_attributes", source), notes=tuple(notes),
+    )
+    warnings = validate_fold_model(model, source=source)
+    try:
+        mesh = model.mesh()
+    except MeshError as exc:
+        raise exc.with_source(source) from None
+    extra = tuple(warnings) + tuple(mesh.warnings)
+    if extra:
+        object.__setattr__(model, "notes", model.notes + extra)
+    return model
+
+
+def _parse_frames(d: dict, V: np.ndarray, unit: str, faces: list, edges: np.ndarray,
+                  source: str) -> list[FoldFrame]:
+    """`file_frames` -> FoldFrames (inheritance resolved: each frame gets full coordinates)."""
+    if "file_frames" not in d:
+        return []
+    raw = _list(d["file_frames"], "file_frames", source)
+    resolved: list[tuple[np.ndarray, np.ndarray | None, str]] = [(V, None, unit)]  # frame 0 = key frame
+    frames: list[FoldFrame] = []
+    for i, f in enumerate(raw, start=1):
+        where = f"file_frames[{i - 1}] (frame {i}): "
+        if not isinstance(f, dict):
+            raise InputError(f"{where}must be a JSON object, got {type(f).__name__}", source=source)
+        inherit = f.get("frame_inherit", False)
+        if not isinstance(inherit, bool):
+            raise InputError(f"{where}frame_inherit must be true or false, got {_short(inherit)}", source=source)
+        parent = f.get("frame_parent", None)
+        if inherit and parent is None:
+            raise InputError(f"{where}frame_inherit is true but frame_parent is missing", source=source)
+        if parent is not None and (not _is_index(parent) or not 0 <= parent < i):
+            raise InputError(f"{where}frame_parent {_short(parent)} must be an earlier frame (0..{i - 1})",
+                             source=source)
+        for key in _KEY_TOPOLOGY:
+            if key in f and f[key] != (d.get(key) if key in d else edges.tolist()):
+                raise InputError(f"{where}overrides {key}; fabkit needs every frame to share the key frame's "
+                                 "topology", source=source)
+        base_V, base_angle, base_unit = resolved[parent] if inherit else (None, None, unit)
+        funit = _unit(f, where, base_unit, source)
+        if "vertices_coords" in f:
+            Vf = _coords(f["vertices_coords"], where + "vertices_coords", UNIT_TO_METRES[funit], source)
+        elif base_V is not None:
+            Vf = base_V
+        else:
+            raise InputError(f"{where}has no vertices_coords and does not inherit them", source=source)
+        key = "edges_foldAngle" if "edges_foldAngle" in f else "edges_foldAngles" if "edges_foldAngles" in f else None
+        angle = _angles(f[key], where + key, source) if key else base_angle
+        resolved.append((Vf, angle, funit))
+        data = {k[len("frame_" + _PREFIX):] if k.startswith("frame_" + _PREFIX) else k: v
+                for k, v in f.items() if ":" in k}
+        frames.append(FoldFrame(Vf, angle, _strings(f.get("frame_classes", []), where + "frame_classes", source),
+                                data, _strings(f.get("frame_attributes", []), where + "frame_attributes", source)))
+    return frames
+
+
+def load_fold(path: str | os.PathLike) -> FoldModel:
+    """Read a FOLD file into a validated `FoldModel` (metres, radians; see module docstring)."""
+    source = str(path)
+    text = read_text(path, "FOLD")
+    if not text.strip():
+        raise InputError("empty file (a FOLD file is a JSON object)", source=source)
+    try:
+        d = json.loads(text, parse_constant=_reject_constant)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", source=source) from None
+    except ValueError as exc:
+        raise InputError(str(exc), source=source) from None
+    return parse_fold(d, source)
+
+
+def _reject_constant(name: str) -> float:
+    raise ValueError(f"{name} is not valid JSON (FOLD numbers must be finite; use null for unknown angles)")
