@@ -1,0 +1,115 @@
+"""The panel as one thin convex piece per face, posed for each fold state.
+
+MuJoCo collides a mesh as its convex hull, so a folded panel given as one mesh would fill the space
+between its wings. Each face therefore becomes its own convex mesh: the face polygon in a local
+frame (origin at its centroid, z along its best-fit normal) extruded by +-thickness/2. A fold state
+moves every face rigidly; the pose of a piece in a state is the best rigid fit (Kabsch) of its
+local polygon onto the state's vertex coordinates, and the fit residual says how far the state
+departs from a rigid fold (curved-crease states bend a little inside a face).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+__all__ = ["PanelPieces", "panel_pieces", "piece_poses", "interpolate_poses"]
+
+
+@dataclass(frozen=True, eq=False)
+class PanelPieces:
+    """Convex pieces of a panel: `local_vertices[f]` (2k, 3) prism corners of face f in its own frame
+    (metres), `faces[f]` the vertex ids of face f, `thickness` (m)."""
+
+    local_polygons: tuple[np.ndarray, ...]
+    local_vertices: tuple[np.ndarray, ...]
+    faces: tuple[np.ndarray, ...]
+    thickness: float
+
+    def __len__(self) -> int:
+        return len(self.faces)
+
+
+def _face_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centroid and rotation (columns x, y, z) of a polygon; z is its best-fit normal, oriented by
+    the polygon's winding (counter-clockwise seen from +z)."""
+    c = points.mean(axis=0)
+    p = points - c
+    normal = np.zeros(3)
+    for i in range(len(p)):  # Newell's normal: orientation follows the winding
+        normal += np.cross(p[i], p[(i + 1) % len(p)])
+    n = np.linalg.norm(normal)
+    if not np.isfinite(n) or n < 1e-12:
+        raise ValueError("degenerate face: zero area")
+    z = normal / n
+    x = p[0] - z * (p[0] @ z)
+    x /= np.linalg.norm(x)
+    return c, np.column_stack([x, np.cross(z, x), z])
+
+
+def panel_pieces(vertices, faces, thickness: float = 0.001) -> PanelPieces:
+    """Build the pieces from reference vertex coordinates (n, 3) in the panel frame (usually the
+    flat crease pattern) and polygon faces (sequences of vertex ids)."""
+    V = np.asarray(vertices, dtype=np.float64)
+    if V.ndim != 2 or V.shape[1] != 3 or not np.isfinite(V).all():
+        raise ValueError("panel vertices must be a finite (n, 3) array")
+    if not thickness > 0:
+        raise ValueError("panel thickness must be positive")
+    polys, prisms, fs = [], [], []
+    for f, face in enumerate(faces):
+        idx = np.asarray(face, dtype=np.int64)
+        if len(idx) < 3 or idx.min() < 0 or idx.max() >= len(V):
+            raise ValueError(f"panel face {f} has bad vertex ids {idx.tolist()}")
+        try:
+            c, R = _face_frame(V[idx])
+        except ValueError as exc:
+            raise ValueError(f"panel face {f}: {exc}") from None
+        local = (V[idx] - c) @ R
+        local[:, 2] = 0.0  # project onto the face plane (a relaxed face is planar to ~1e-4)
+        h = np.array([0.0, 0.0, thickness / 2])
+        polys.append(local)
+        prisms.append(np.vstack([local - h, local + h]))
+        fs.append(idx)
+    return PanelPieces(tuple(polys), tuple(prisms), tuple(fs), float(thickness))
+
+
+def piece_poses(pieces: PanelPieces, vertices) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rigid poses of every piece for one state's vertex coordinates (n, 3).
+
+    Returns positions (F, 3), quaternions (F, 4) scalar-first (MuJoCo order) and the fit residual
+    (F,): the largest distance between a state vertex and its fitted piece corner (m).
+    """
+    V = np.asarray(vertices, dtype=np.float64)
+    F = len(pieces)
+    pos, quat, res = np.zeros((F, 3)), np.zeros((F, 4)), np.zeros(F)
+    for f in range(F):
+        target = V[pieces.faces[f]]
+        local = pieces.local_polygons[f]
+        c = target.mean(axis=0)
+        rot, _ = Rotation.align_vectors(target - c, local - local.mean(axis=0))
+        t = c - rot.apply(local.mean(axis=0))
+        res[f] = np.linalg.norm(rot.apply(local) + t - target, axis=1).max()
+        pos[f] = t
+        x, y, z, w = rot.as_quat()
+        quat[f] = (w, x, y, z)
+    return pos, quat, res
+
+
+def interpolate_poses(pos: np.ndarray, quat: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Piece poses at fractional fold state `s` from per-state poses pos (S, F, 3), quat (S, F, 4).
+
+    Linear in position, normalised-linear in rotation between the two neighbouring states (steps
+    between fold states are small rotations, where this equals slerp to second order).
+    """
+    S = pos.shape[0]
+    s = float(np.clip(s, 0, S - 1))
+    k = min(int(np.floor(s)), S - 2) if S > 1 else 0
+    t = s - k
+    if S == 1 or t == 0.0:
+        return pos[k], quat[k]
+    q0, q1 = quat[k], quat[k + 1]
+    sign = np.where(np.sum(q0 * q1, axis=1, keepdims=True) < 0, -1.0, 1.0)
+    q = (1 - t) * q0 + t * sign * q1
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    return (1 - t) * pos[k] + t * pos[k + 1], q
