@@ -1,0 +1,234 @@
+"""fabkit generate: procedural input meshes (presets) written as OBJ with their tags."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from fabkit.commands._common import add_common, say, write_report
+from fabkit.errors import InputError
+
+HELP = """Write a procedural input mesh.
+
+Presets (parameters in brackets, defaults after '='; lengths in metres, angles in degrees):
+  reflect  exactly developable curved-crease panel by the reflection method
+           [radius=0.5 arc=60 width=0.6 creases=1 offset fold=60 skew=0 offset2 fold2 skew2
+            columns=24 rows=4]; offset defaults to width/2 (one crease) or width/4 (two creases),
+           offset2 to 3*width/5, fold2 to -fold, skew2 to skew
+  trifold  the tri-fold panel of the paper's Fig. 3 (chamfer, bevel, delete, extrude,
+           Catmull-Clark, retopologise) [size=0.6 length=0.9 resolution=4 height=0.12]
+  cube     a closed cube [size=1 subdivide=0]
+  prism    a closed right prism over a regular polygon [sides=6 radius=0.5 height=1 subdivide=0]
+  grid     a flat quad grid in z=0 [nx=10 ny=10 size_x=1 size_y=1]
+
+Prints vertices, faces, max |angle defect| and max planarity of the written mesh.
+
+Example:
+  fabkit generate reflect -o r.obj --creases 2 --fold 50 --columns 40
+"""
+
+
+@dataclass(frozen=True)
+class Param:
+    kind: type  # int or float
+    default: object  # None: computed by the preset
+    help: str
+    positive: bool = False
+
+
+def _deg(x: float) -> float:
+    return math.radians(x)
+
+
+def _build_reflect(p: dict):
+    from fabkit.generate.reflect import MirrorPlane, reflect_panel
+
+    k = p["creases"]
+    if k not in (1, 2):
+        raise InputError(f"--creases must be 1 or 2, got {k}", source="preset reflect")
+    width = p["width"]
+    planes = [MirrorPlane(p["offset"] if p["offset"] is not None else width / (2 if k == 1 else 4),
+                          _deg(p["fold"]), _deg(p["skew"]))]
+    if k == 2:
+        planes.append(MirrorPlane(p["offset2"] if p["offset2"] is not None else 3 * width / 5,
+                                  _deg(p["fold2"] if p["fold2"] is not None else -p["fold"]),
+                                  _deg(p["skew2"] if p["skew2"] is not None else p["skew"])))
+    else:
+        extra = [f"--{n}" for n in ("offset2", "fold2", "skew2") if p[n] is not None]
+        if extra:
+            raise InputError(f"{', '.join(extra)} need --creases 2", source="preset reflect")
+    return reflect_panel(radius=p["radius"], arc=_deg(p["arc"]), width=width, planes=planes,
+                         columns=p["columns"], rows=p["rows"])
+
+
+def _build_trifold(p: dict):
+    from fabkit.generate.trifold import trifold_panel
+
+    return trifold_panel(size=p["size"], length=p["length"], resolution=p["resolution"], height=p["height"])
+
+
+def _build_cube(p: dict):
+    from fabkit.generate.polyhedra import cube
+    from fabkit.generate.subdivide import catmull_clark
+
+    return catmull_clark(cube(p["size"]), p["subdivide"])
+
+
+def _build_prism(p: dict):
+    from fabkit.generate.polyhedra import prism
+    from fabkit.generate.subdivide import catmull_clark
+
+    return catmull_clark(prism(p["sides"], p["radius"], p["height"]), p["subdivide"])
+
+
+def _build_grid(p: dict):
+    from fabkit.generate.polyhedra import grid
+
+    return grid(p["nx"], p["ny"], p["size_x"], p["size_y"])
+
+
+PRESETS: dict[str, tuple[Callable, dict[str, Param]]] = {
+    "reflect": (_build_reflect, {
+        "radius": Param(float, 0.5, "cylinder radius [m]", True),
+        "arc": Param(float, 60.0, "angle the strip spans around the cylinder axis [deg]", True),
+        "width": Param(float, 0.6, "length of the generators [m]", True),
+        "creases": Param(int, 1, "number of creases (1 or 2)", True),
+        "offset": Param(float, None, "height of crease 1 on the middle generator [m]"),
+        "fold": Param(float, 60.0, "fold angle of crease 1 at the middle (valley +) [deg]"),
+        "skew": Param(float, 0.0, "slope of crease 1 in the development at the middle [deg]"),
+        "offset2": Param(float, None, "height of crease 2 on the middle generator [m]"),
+        "fold2": Param(float, None, "fold angle of crease 2 [deg]"),
+        "skew2": Param(float, None, "slope of crease 2 [deg]"),
+        "columns": Param(int, 24, "quads along the creases", True),
+        "rows": Param(int, 4, "quads across each strip", True),
+    }),
+    "trifold": (_build_trifold, {
+        "size": Param(float, 0.6, "panel extent across the creases [m]", True),
+        "length": Param(float, 0.9, "panel extent along the creases [m]", True),
+        "resolution": Param(int, 4, "quads per strip along the creases, doubled per level ...", True),
+        "height": Param(float, 0.12, "rise of the middle strip [m]", True),
+    }),
+    "cube": (_build_cube, {
+        "size": Param(float, 1.0, "edge length [m]", True),
+        "subdivide": Param(int, 0, "Catmull-Clark levels"),
+    }),
+    "prism": (_build_prism, {
+        "sides": Param(int, 6, "sides of the base polygon", True),
+        "radius": Param(float, 0.5, "circumradius of the base [m]", True),
+        "height": Param(float, 1.0, "height [m]", True),
+        "subdivide": Param(int, 0, "Catmull-Clark levels"),
+    }),
+    "grid": (_build_grid, {
+        "nx": Param(int, 10, "quads along x", True),
+        "ny": Param(int, 10, "quads along y", True),
+        "size_x": Param(float, 1.0, "extent along x [m]", True),
+        "size_y": Param(float, 1.0, "extent along y [m]", True),
+    }),
+}
+
+MAX_FACES = 5_000_000  # refuse absurd resolutions before allocating them
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("preset", metavar="PRESET", help=f"one of: {', '.join(PRESETS)}")
+    parser.add_argument("-o", "--output", required=True, metavar="OUT.obj", help="output mesh (.obj keeps the tags)")
+    names: dict[str, str] = {}
+    for preset, (_, params) in PRESETS.items():
+        for name, spec in params.items():
+            names.setdefault(name, spec.help)
+    for name, text in names.items():
+        parser.add_argument(f"--{name.replace('_', '-')}", dest=f"p_{name}", metavar="VALUE", default=None,
+                            help=text)
+    add_common(parser)
+
+
+def _convert(preset: str, name: str, raw: str, spec: Param):
+    opt = f"--{name.replace('_', '-')}"
+    try:
+        value = spec.kind(raw) if spec.kind is float else int(raw, 10)
+    except ValueError:
+        kind = "a number" if spec.kind is float else "an integer"
+        raise InputError(f"{opt} must be {kind}, got {raw!r}", source=f"preset {preset}") from None
+    if spec.kind is float and not math.isfinite(value):
+        raise InputError(f"{opt} must be finite, got {raw!r}", source=f"preset {preset}")
+    if spec.positive and value <= 0:
+        raise InputError(f"{opt} must be positive, got {raw}", source=f"preset {preset}")
+    if spec.kind is int and value < 0:
+        raise InputError(f"{opt} must not be negative, got {raw}", source=f"preset {preset}")
+    return value
+
+
+def resolve_params(preset: str, args) -> dict:
+    """Preset parameters from parsed args: defaults filled, types and signs checked, foreign options refused."""
+    if preset not in PRESETS:
+        raise InputError(f"unknown preset {preset!r}; choose one of: {', '.join(PRESETS)}")
+    _, params = PRESETS[preset]
+    given = {k[2:]: v for k, v in vars(args).items() if k.startswith("p_") and v is not None}
+    foreign = sorted(set(given) - set(params))
+    if foreign:
+        opts = ", ".join(f"--{n.replace('_', '-')}" for n in foreign)
+        raise InputError(f"preset {preset} has no parameter {opts} (it takes: "
+                         f"{', '.join('--' + n.replace('_', '-') for n in params)})")
+    out = {}
+    for name, spec in params.items():
+        out[name] = _convert(preset, name, given[name], spec) if name in given else spec.default
+    return out
+
+
+def _estimate_faces(preset: str, p: dict) -> int:
+    if preset == "reflect":
+        return p["columns"] * p["rows"] * (p["creases"] + 1)
+    if preset == "grid":
+        return p["nx"] * p["ny"]
+    if preset in ("cube", "prism"):
+        base = 6 if preset == "cube" else 2 * p["sides"]
+        return base * 4 ** min(p["subdivide"], 20)
+    if preset == "trifold":
+        return 64 * p["resolution"] ** 2
+    return 0
+
+
+def run(args) -> int:
+    from fabkit import measures
+    from fabkit.io import save_mesh
+
+    preset = args.preset
+    p = resolve_params(preset, args)
+    if _estimate_faces(preset, p) > MAX_FACES:
+        raise InputError(f"these parameters make about {_estimate_faces(preset, p):,} faces, more than the "
+                         f"{MAX_FACES:,} this command writes; lower the resolution", source=f"preset {preset}")
+    build, _ = PRESETS[preset]
+    try:
+        mesh = build(p)
+    except InputError as exc:
+        raise InputError(exc.message, source=f"preset {preset}") from None
+    save_mesh(mesh, args.output)
+    s = measures.summary(mesh)
+    kinds = {int(k): int(c) for k, c in enumerate(np.bincount(mesh.face_sizes)) if c}
+    report = {"preset": preset, "params": p, "output": str(args.output), **s,
+              "face_sizes": kinds, "tags": sorted(mesh.face_data) + sorted(mesh.vertex_data)}
+    if "strip" in mesh.face_data:
+        d = measures.dihedral_angles(mesh)
+        st = mesh.face_data["strip"]
+        ef = mesh.edge_faces
+        inner = np.all(ef >= 0, axis=1)
+        a, b = st[np.maximum(ef[:, 0], 0)], st[np.maximum(ef[:, 1], 0)]
+        creases = []
+        for c in range(int(st.max())):
+            e = inner & (np.minimum(a, b) == c) & (a != b)
+            ang = np.degrees(d[e])
+            creases.append({"between_strips": [c, c + 1], "edges": int(e.sum()),
+                            "min_fold_deg": float(ang.min()) if len(ang) else None,
+                            "max_fold_deg": float(ang.max()) if len(ang) else None})
+        report["strips"] = int(st.max()) + 1
+        report["creases"] = creases
+    write_report(args, report)
+    say(args, f"{preset}: {s['vertices']} vertices, {s['faces']} faces "
+              f"({', '.join(f'{c}x{k}-gon' for k, c in kinds.items())}) -> {args.output}")
+    say(args, f"max |angle defect| {s['max_abs_angle_defect_rad']:.3g} rad, max planarity {s['max_planarity']:.3g}")
+    for c in report.get("creases", []):
+        say(args, f"crease {c['between_strips'][0]}|{c['between_strips'][1]}: {c['edges']} edges, fold "
+                  f"{c['min_fold_deg']:.2f}..{c['max_fold_deg']:.2f} deg")
+    return 0

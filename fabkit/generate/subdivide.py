@@ -1,0 +1,105 @@
+"""Catmull–Clark subdivision (Fig. 3 step e), vectorised as one sparse linear operator.
+
+Written by hand: trimesh only subdivides triangles (loop / midpoint) and libigl's Python
+bindings have no Catmull–Clark for polygon meshes; we need n-gons, boundaries and the map back.
+
+Rules (Catmull & Clark 1978; boundary rules as in DeRose et al. 1998 / OpenSubdiv "edge and corner"):
+- face point: centroid of the face;
+- interior edge point: (v0 + v1 + both face points) / 4; boundary edge point: the midpoint;
+- interior vertex of valence n: (Q + 2R + (n - 3) P) / n, Q = mean of the adjacent face points,
+  R = mean of the incident edge midpoints;
+- boundary vertex with two boundary edges and at least two faces: (prev + 6 P + next) / 8;
+- corners (boundary vertices of a single face) and non-manifold boundary vertices stay fixed.
+
+Numbering: the old vertices keep their ids (0..n-1), then one edge point per edge (in
+`topology.edges` order), then one face point per face. Every face of k corners becomes k quads
+(vertex, next edge point, face point, previous edge point), in corner order, so the new faces of
+old face f are contiguous and `face_data` is inherited from f. Float `vertex_data` (e.g. "uv") is
+subdivided with the same operator; other vertex data is dropped (it has no meaning at new points).
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from fabkit.mesh import MeshTopology, PolyMesh
+
+__all__ = ["catmull_clark", "catmull_clark_operator"]
+
+
+def catmull_clark_operator(topology: MeshTopology) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """`(S, quads, face_parent)` for one Catmull–Clark step of `topology`.
+
+    S is the sparse `(n + E + F, n)` matrix with new vertices = S @ old vertices; quads `(C, 4)`
+    (C = number of corners) are the new faces; face_parent `(C,)` the old face of every new face.
+    """
+    t = topology
+    n, E, F = t.n_vertices, t.n_edges, t.n_faces
+    idx = t.face_indices
+    cf = t.corner_face
+    sizes = t.face_sizes.astype(np.float64)
+
+    # face points: Fm (F x n) averaging each face's corners
+    Fm = sp.csr_matrix((1.0 / sizes[cf], (cf, idx)), shape=(F, n))
+
+    # edge points
+    edges = t.edges
+    ef = t.edge_faces
+    interior = np.all(ef >= 0, axis=1)
+    e_all = np.arange(E)
+    w_vert = np.where(interior, 0.25, 0.5)
+    rows = [e_all, e_all]
+    cols = [edges[:, 0], edges[:, 1]]
+    vals = [w_vert, w_vert]
+    Ev = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(E, n))
+    ei = np.flatnonzero(interior)
+    Lf = sp.csr_matrix((np.full(2 * len(ei), 0.25), (np.concatenate([ei, ei]), np.concatenate([ef[ei, 0], ef[ei, 1]]))),
+                       shape=(E, F))
+    Em = Ev + Lf @ Fm
+
+    # vertex points
+    valence = np.bincount(edges.ravel(), minlength=n).astype(np.float64)
+    n_faces_at = np.bincount(idx, minlength=n)
+    b_edges = edges[~interior]
+    n_bedges = np.bincount(b_edges.ravel(), minlength=n)
+    is_boundary = n_bedges > 0
+    smooth_boundary = (n_bedges == 2) & (n_faces_at >= 2)
+    inner = ~is_boundary & (n_faces_at > 0)
+    # interior: Q/n + 2R/n + (n-3)/n P = (1/n^2) VF Fm + (1/n^2) A + ((n-2)/n) I
+    inv_n2 = np.where(inner, 1.0 / np.maximum(valence, 1.0) ** 2, 0.0)
+    VF = sp.csr_matrix((inv_n2[idx], (idx, cf)), shape=(n, F))
+    a = np.concatenate([edges[:, 0], edges[:, 1]])
+    b = np.concatenate([edges[:, 1], edges[:, 0]])
+    A = sp.csr_matrix((inv_n2[a], (a, b)), shape=(n, n))
+    diag = np.where(inner, (valence - 2.0) / np.maximum(valence, 1.0), 0.0)
+    diag = np.where(smooth_boundary, 0.75, diag)
+    diag = np.where(is_boundary & ~smooth_boundary, 1.0, diag)
+    diag = np.where(n_faces_at == 0, 1.0, diag)  # unused vertices keep their place
+    ba = np.concatenate([b_edges[:, 0], b_edges[:, 1]])
+    bb = np.concatenate([b_edges[:, 1], b_edges[:, 0]])
+    keep = smooth_boundary[ba]
+    B = sp.csr_matrix((np.full(int(keep.sum()), 0.125), (ba[keep], bb[keep])), shape=(n, n))
+    Vm = VF @ Fm + A + B + sp.diags(diag)
+
+    S = sp.vstack([Vm, Em, Fm]).tocsr()
+
+    # new faces: one quad per old corner
+    c = np.arange(len(idx))
+    e_next = t.halfedge_edge  # edge from this corner to the next
+    e_prev = t.halfedge_edge[t.corner_prev]
+    quads = np.stack([idx, n + e_next[c], n + E + cf, n + e_prev], axis=1).astype(np.int64)
+    return S, quads, cf.copy()
+
+
+def catmull_clark(mesh: PolyMesh, levels: int = 1) -> PolyMesh:
+    """`levels` Catmull–Clark steps; keeps old vertex ids, inherits face data (see module docstring)."""
+    if int(levels) != levels or levels < 0:
+        raise ValueError(f"levels must be a non-negative integer, got {levels}")
+    for _ in range(int(levels)):
+        S, quads, parent = catmull_clark_operator(mesh.topology)
+        V = S @ mesh.vertices
+        fd = {k: np.asarray(v)[parent] for k, v in mesh.face_data.items()}
+        vd = {k: S @ np.asarray(v, dtype=np.float64) for k, v in mesh.vertex_data.items()
+              if np.issubdtype(np.asarray(v).dtype, np.floating)}
+        mesh = PolyMesh(V, quads, face_data=fd, vertex_data=vd, validate=False)
+    return mesh
