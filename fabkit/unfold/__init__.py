@@ -1,0 +1,135 @@
+"""Planar development (unfolding) of a panel, with the paper's error metrics (§2.8, §3.3).
+
+`develop(mesh, method="isometric")` returns a `Development`: 2D coordinates in the panel's vertex
+order plus the length deviation of every edge and face diagonal, area change, flips and outline
+overlap. Methods (paper Fig. 10):
+
+- "isometric" (default): spring energy between 3D and 2D lengths over edges and face diagonals,
+  from the exact incremental layout, refined by sparse Levenberg-Marquardt (`isometric.py`);
+- "conformal": least-squares conformal maps, best-scaled (`conformal.py`);
+- "authalic": area-preserving with a weak conformal term (`authalic.py`).
+
+`target_lengths` replaces the 3D lengths (the multi-panel merge step of §3.5): shape (E,) for the
+mesh edges (each face's diagonals are then scaled by the mean target/3D ratio of its edges) or
+(E + D,) for edges and diagonals in `spring_pairs` order. Only the isometric method uses them.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from fabkit.errors import InputError, MeshError
+from fabkit.mesh import PolyMesh
+from fabkit.unfold.authalic import authalic_layout
+from fabkit.unfold.conformal import best_scale, conformal_layout
+from fabkit.unfold.development import Development, measure_development
+from fabkit.unfold.isometric import refine_isometric
+from fabkit.unfold.layout import incremental_layout
+from fabkit.unfold.metrics import spring_lengths
+from fabkit.unfold.placement import place_on_sheet
+from fabkit.unfold.springs import face_diagonals, spring_pairs
+
+__all__ = ["METHODS", "Development", "develop", "spring_pairs", "reference_lengths"]
+
+METHODS = ("isometric", "conformal", "authalic")
+
+
+def reference_lengths(mesh: PolyMesh, target_lengths=None) -> tuple[np.ndarray, np.ndarray]:
+    """`(pairs (S, 2), rest (S,))`: the springs and the lengths the development aims at."""
+    pairs, E = spring_pairs(mesh)
+    rest = spring_lengths(mesh.vertices, pairs)
+    if target_lengths is None:
+        return pairs, rest
+    t = np.asarray(target_lengths, dtype=np.float64)
+    S = len(pairs)
+    if t.ndim != 1 or len(t) not in (E, S):
+        raise InputError(f"target lengths need {E} entries (one per edge) or {S} (edges then diagonals), "
+                         f"got shape {t.shape}", source="target_lengths")
+    bad = np.flatnonzero(~np.isfinite(t) | (t <= 0))
+    if len(bad):
+        raise InputError(f"target length {int(bad[0])} is {t[bad[0]]}; lengths must be finite and positive",
+                         source="target_lengths")
+    if len(t) == S:
+        return pairs, t.copy()
+    out = rest.copy()
+    out[:E] = t
+    if S > E:
+        topo = mesh.topology
+        ratio = t / rest[:E]
+        he_ratio = ratio[topo.halfedge_edge]
+        face_ratio = np.add.reduceat(he_ratio, topo.face_offsets[:-1]) / topo.face_sizes
+        _, dface = face_diagonals(mesh)
+        out[E:] = rest[E:] * face_ratio[dface]
+    return pairs, out
+
+
+def _check_panel(mesh: PolyMesh) -> None:
+    if not mesh.boundary_loops:
+        raise MeshError("the mesh is closed (no boundary); a closed surface cannot be unfolded without cuts")
+    small = mesh.edge_lengths <= 1e-12 * max(mesh.size, 1e-300)
+    if np.any(small):
+        e = int(np.flatnonzero(small)[0])
+        raise MeshError(f"edge {e} {tuple(int(v) for v in mesh.edges[e])} has zero length")
+
+
+def _isometric(mesh: PolyMesh, pairs, rest, seed_face, max_iterations):
+    layout = incremental_layout(mesh, seed_face)
+    uv, info = refine_isometric(mesh, layout.uv, pairs, rest, layout.anchor, max_iterations=max_iterations)
+    info = {**info, "start": "incremental layout", "seed_face": layout.seed_face}
+    dev = measure_development(mesh, uv, method="isometric")
+    if dev.n_flipped == 0 and not dev.outline_self_overlaps:
+        return uv, info
+    # The layout folded over itself (strongly non-developable input): start again from the
+    # conformal map, which does not flip on a disk, and keep whichever result is better.
+    tris, _ = mesh.triangulate()
+    start = conformal_layout(mesh, tris)
+    start *= best_scale(start, pairs, rest)
+    p = int(np.argmin(np.linalg.norm(start, axis=1)))
+    q = int(np.argmax(np.linalg.norm(start - start[p], axis=1)))
+    d = (start[q] - start[p]) / np.linalg.norm(start[q] - start[p])
+    start = (start - start[p]) @ np.array([[d[0], -d[1]], [d[1], d[0]]])  # p at 0, q on +x
+    uv2, info2 = refine_isometric(mesh, start, pairs, rest, (p, q), max_iterations=max_iterations)
+    dev2 = measure_development(mesh, uv2, method="isometric")
+    if (dev2.n_flipped, dev2.outline_self_overlaps) < (dev.n_flipped, dev.outline_self_overlaps):
+        return uv2, {**info2, "start": "conformal map (the incremental start flipped)", "seed_face": -1}
+    return uv, info
+
+
+def develop(mesh: PolyMesh, method: str = "isometric", target_lengths=None, *, seed_face: int | None = None,
+            place: bool = True, max_iterations: int = 100) -> Development:
+    """Unfold `mesh` into the plane and measure the result (see the module docstring).
+
+    place: move the result rigidly so its principal axes are x/y and its bounding box starts at the
+    origin (`placement.place_on_sheet`); otherwise the seed face's first edge lies on +x from 0.
+    Raises `MeshError` for meshes that cannot be unfolded (closed, several pieces, zero-length edges)
+    and `InputError` for bad target lengths or an unknown method.
+    """
+    if method not in METHODS:
+        raise InputError(f"unknown method {method!r} (choose {', '.join(METHODS)})", source="method")
+    _check_panel(mesh)
+    pairs, rest = reference_lengths(mesh, target_lengths)
+    if target_lengths is not None and method != "isometric":
+        raise InputError("target lengths are only used by the isometric method", source="method")
+    details: dict = {}
+    if method == "isometric":
+        uv, info = _isometric(mesh, pairs, rest, seed_face, max_iterations)
+        seed = info.pop("seed_face")
+        details["start"] = info.pop("start")
+        details["initial_max_relative_deviation"] = info.pop("initial_max_relative_deviation", None)
+        info.pop("energy", None)
+    else:
+        tris, _ = mesh.triangulate()
+        seed = -1
+        if method == "conformal":
+            uv = conformal_layout(mesh, tris)
+            s = best_scale(uv, pairs, rest)
+            uv = uv * s
+            details["scale"] = s
+            info = {"iterations": 1, "converged": True, "message": "linear least squares (sparse direct solve)"}
+        else:
+            uv, info = authalic_layout(mesh, tris, max_iterations=max_iterations)
+            info.pop("energy", None)
+    if place:
+        uv = place_on_sheet(uv, mesh.topology.used_vertex_mask)
+    E = mesh.n_edges
+    return measure_development(mesh, uv, method=method, edge_reference=rest[:E], diagonal_reference=rest[E:],
+                               seed_face=seed, details=details, **info)
