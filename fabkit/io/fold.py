@@ -23,10 +23,11 @@ and the element. Remarks made while reading (unit assumptions, a pattern rotated
 """
 from __future__ import annotations
 
+import decimal
 import json
 import math
 import os
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -40,44 +41,110 @@ __all__ = ["load_fold", "save_fold", "parse_fold", "fold_to_json", "UNIT_TO_METR
 FOLD_SPEC = 1.2
 WRITE_UNIT = "mm"
 
-#: FOLD `frame_unit` -> metres as an exact (numerator, denominator) pair: metres = value * num / den.
-UNIT_TO_METRES: dict[str, tuple[float, float]] = {
-    "m": (1.0, 1.0), "cm": (1.0, 100.0), "mm": (1.0, 1000.0), "um": (1.0, 1e6), "nm": (1.0, 1e9),
-    "in": (254.0, 10000.0), "pt": (254.0, 720000.0), "unit": (1.0, 1.0),
+# ---- exact unit conversion ----------------------------------------------------------------------
+# Numbers cross the file boundary through `decimal` (hand-written: no library converts JSON number
+# text between units without a second rounding). Coordinates are written as the exact decimal of
+# `repr(x)` shifted three places (metres -> mm) and read back by shifting the file's digits, so every
+# double survives a round trip bitwise. Angles are written as the shortest degree string that reads
+# back (through pi/180 to 40 digits) to the same double.
+_CTX = decimal.Context(prec=40)
+
+
+def _pi(digits: int = 50) -> decimal.Decimal:
+    """pi to `digits` digits (the series from the Python `decimal` documentation)."""
+    ctx = decimal.Context(prec=digits + 5)
+    three = decimal.Decimal(3)
+    lasts, t, s, n, na, d, da = 0, three, three, 1, 0, 0, 24
+    while s != lasts:
+        lasts = s
+        n, na = n + na, na + 8
+        d, da = d + da, da + 32
+        t = ctx.divide(ctx.multiply(t, n), d)
+        s = ctx.add(s, t)
+    return +s
+
+
+_RAD_PER_DEG = _CTX.divide(_pi(), decimal.Decimal(180))
+_DEG_PER_RAD = _CTX.divide(decimal.Decimal(180), _pi())
+
+#: FOLD `frame_unit` -> metres per file unit (exact decimals; pt = 1/72 in to 40 digits).
+UNIT_TO_METRES: dict[str, decimal.Decimal] = {
+    "m": decimal.Decimal(1), "cm": decimal.Decimal("0.01"), "mm": decimal.Decimal("0.001"),
+    "um": decimal.Decimal("1e-6"), "nm": decimal.Decimal("1e-9"), "in": decimal.Decimal("0.0254"),
+    "pt": _CTX.divide(decimal.Decimal("0.0254"), decimal.Decimal(72)), "unit": decimal.Decimal(1),
 }
 
 _PREFIX = "fabkit:"
 _KEY_TOPOLOGY = ("edges_vertices", "faces_vertices")
 
 
-# ---- exact unit conversion ----------------------------------------------------------------------
-def _exact_inverse(x: np.ndarray, forward: Callable[[np.ndarray], np.ndarray],
-                   inverse: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
-    """`forward(x)`, nudged by one ulp where that makes `inverse(y) == x` bitwise.
+class _Num(float):
+    """A JSON number that remembers its text (so unit conversion can start from the exact decimal)."""
 
-    A file value y = x * 1000 does not always read back as exactly x (y / 1000 rounds); trying the
-    neighbouring doubles of y makes the round trip exact for (nearly) every x and never worse than
-    one ulp. Non-finite values pass through.
-    """
-    y = forward(x)
-    ok = inverse(y) == x
-    for direction in (np.inf, -np.inf):
-        if np.all(ok | ~np.isfinite(x)):
-            break
-        cand = np.nextafter(y, direction)
-        better = ~ok & (inverse(cand) == x)
-        y = np.where(better, cand, y)
-        ok |= better
-    return y
+    def __new__(cls, text: str) -> "_Num":
+        obj = super().__new__(cls, text)
+        obj.text = text
+        return obj
 
 
-def _to_file_mm(V: np.ndarray) -> np.ndarray:
-    num, den = UNIT_TO_METRES[WRITE_UNIT]
-    return _exact_inverse(V, lambda x: x * den / num, lambda y: y * num / den)
+def _text(x: float | int) -> str:
+    return x.text if isinstance(x, _Num) else repr(x) if isinstance(x, float) else str(int(x))
 
 
-def _to_file_degrees(a: np.ndarray) -> np.ndarray:
-    return _exact_inverse(a, np.degrees, np.radians)
+def _decimal_json(d: decimal.Decimal) -> str:
+    """A Decimal as a JSON number: plain digits for everyday magnitudes, exponent form otherwise."""
+    if d.is_zero():
+        return "0"
+    if -7 <= d.adjusted() <= 15:
+        t = format(d, "f")
+        if "." in t:
+            t = t.rstrip("0").rstrip(".")
+        return t
+    return str(d).replace("E", "e")
+
+
+def _to_si(x: float | int, factor: decimal.Decimal) -> float:
+    """A number from the file (in file units) -> metres, rounded once."""
+    if factor == 1:
+        return float(x)
+    return float(_CTX.multiply(decimal.Decimal(_text(x)), factor))
+
+
+def _metres_to_mm_text(x: float) -> str:
+    """Exact decimal of `repr(x)` metres in millimetres (reads back to exactly x)."""
+    return _decimal_json(decimal.Decimal(repr(float(x))).scaleb(3))
+
+
+def _degrees_to_radians(x: float | int) -> float:
+    return float(_CTX.multiply(decimal.Decimal(_text(x)), _RAD_PER_DEG))
+
+
+def _radians_to_degrees_text(a: float) -> str | None:
+    """Shortest degree string that `_degrees_to_radians` maps back to exactly `a` (None for NaN)."""
+    a = float(a)
+    if math.isnan(a):
+        return None
+    t = repr(float(np.degrees(a)))
+    if _degrees_to_radians(_Num(t)) == a:
+        return t
+    exact = _CTX.multiply(decimal.Decimal(a), _DEG_PER_RAD)
+    for digits in range(15, 30):
+        t = _decimal_json(decimal.Context(prec=digits).plus(exact))
+        if _degrees_to_radians(_Num(t)) == a:
+            return t
+    return repr(float(np.degrees(a)))  # pragma: no cover - 30 digits always suffice
+
+
+def _coords_json(V: np.ndarray) -> list[list[_Num]]:
+    return [[_Num(_metres_to_mm_text(c)) for c in row] for row in V.tolist()]
+
+
+def _angles_json(a: np.ndarray) -> list:
+    out = []
+    for x in a.tolist():
+        t = _radians_to_degrees_text(x)
+        out.append(None if t is None else _Num(t))
+    return out
 
 
 # ---- writing -------------------------------------------------------------------------------------
@@ -112,10 +179,10 @@ def fold_to_json(model: FoldModel) -> dict[str, Any]:
     if model.attributes:
         d["frame_attributes"] = list(model.attributes)
     d["frame_unit"] = WRITE_UNIT
-    d["vertices_coords"] = _to_file_mm(model.vertices_coords).tolist()
+    d["vertices_coords"] = _coords_json(model.vertices_coords)
     d["edges_vertices"] = model.edges_vertices.tolist()
     d["edges_assignment"] = model.edges_assignment.tolist()
-    d["edges_foldAngle"] = _jsonable_array(_to_file_degrees(model.edges_fold_angle))
+    d["edges_foldAngle"] = _angles_json(model.edges_fold_angle)
     d["faces_vertices"] = [list(f) for f in model.faces_vertices]
     for kind, data in (("vertices", model.vertices_data), ("edges", model.edges_data), ("faces", model.faces_data)):
         for name, arr in data.items():
@@ -131,13 +198,22 @@ def _frame_json(frame: FoldFrame) -> dict[str, Any]:
         "frame_inherit": True,
         "frame_classes": list(frame.classes),
         "frame_attributes": list(frame.attributes),
-        "vertices_coords": _to_file_mm(frame.vertices_coords).tolist(),
+        "vertices_coords": _coords_json(frame.vertices_coords),
     }
     if frame.edges_fold_angle is not None:
-        d["edges_foldAngle"] = _jsonable_array(_to_file_degrees(frame.edges_fold_angle))
+        d["edges_foldAngle"] = _angles_json(frame.edges_fold_angle)
     for name, value in frame.data.items():
         d[_key("frame", name)] = _jsonable_array(value) if isinstance(value, np.ndarray) else value
     return d
+
+
+def _enc(v: Any) -> str:
+    """Compact JSON of a value; `_Num` keeps its exact text, NaN/Inf are refused."""
+    if isinstance(v, _Num):
+        return v.text
+    if isinstance(v, list):
+        return "[" + ",".join(_enc(x) for x in v) + "]"
+    return json.dumps(v, separators=(",", ":"), allow_nan=False)
 
 
 def _dump(d: dict[str, Any], indent: str = "") -> str:
@@ -148,10 +224,10 @@ def _dump(d: dict[str, Any], indent: str = "") -> str:
             body = (",\n" + indent + "  ").join(_dump(f, indent + "  ") for f in v)
             lines.append(f'{indent} {json.dumps(k)}: [\n{indent}  {body}\n{indent} ]')
         elif isinstance(v, list) and v and isinstance(v[0], list):
-            rows = (",\n" + indent + "  ").join(json.dumps(r, separators=(",", ":"), allow_nan=False) for r in v)
+            rows = (",\n" + indent + "  ").join(_enc(r) for r in v)
             lines.append(f'{indent} {json.dumps(k)}: [\n{indent}  {rows}\n{indent} ]')
         else:
-            lines.append(f"{indent} {json.dumps(k)}: {json.dumps(v, separators=(',', ':'), allow_nan=False)}")
+            lines.append(f"{indent} {json.dumps(k)}: {_enc(v)}")
     return "{\n" + ",\n".join(lines) + "\n" + indent + "}"
 
 
@@ -178,19 +254,17 @@ def _list(value: Any, key: str, source: str) -> list:
     return value
 
 
-def _coords(value: Any, key: str, scale: tuple[float, float], source: str) -> np.ndarray:
+def _coords(value: Any, key: str, factor: decimal.Decimal, source: str) -> np.ndarray:
+    """`vertices_coords` (2D or 3D rows of finite numbers, file units) -> (n, 3) metres."""
     rows = _list(value, key, source)
     out = np.zeros((len(rows), 3))
     for i, r in enumerate(rows):
         if not isinstance(r, list) or len(r) not in (2, 3) or not all(_is_number(c) for c in r):
             raise InputError(f"{key}[{i}] is {_short(r)}: a vertex needs 2 or 3 numbers", source=source)
-        out[i, :len(r)] = r
-    bad = ~np.all(np.isfinite(out), axis=1)
-    if np.any(bad):
-        i = int(np.flatnonzero(bad)[0])
-        raise InputError(f"{key}[{i}] is {_short(rows[i])}: coordinates must be finite", source=source)
-    num, den = scale
-    return out * num / den
+        if not all(math.isfinite(c) for c in r):
+            raise InputError(f"{key}[{i}] is {_short(r)}: coordinates must be finite", source=source)
+        out[i, :len(r)] = [_to_si(c, factor) for c in r]
+    return out
 
 
 def _index_rows(value: Any, key: str, width: int | None, source: str) -> list[list[int]]:
@@ -212,6 +286,7 @@ def _assignments(value: Any, key: str, source: str) -> np.ndarray:
 
 
 def _angles(value: Any, key: str, source: str) -> np.ndarray:
+    """`edges_foldAngle` (degrees or null) -> radians (NaN for null)."""
     rows = _list(value, key, source)
     out = np.full(len(rows), np.nan)
     for i, a in enumerate(rows):
@@ -221,9 +296,9 @@ def _angles(value: Any, key: str, source: str) -> np.ndarray:
             raise InputError(f"{key}[{i}] is {_short(a)}: a fold angle is a finite number of degrees or null",
                              source=source)
         if abs(a) > 180:
-            raise InputError(f"{key}[{i}] is {a} deg, outside [-180, 180]", source=source)
-        out[i] = a
-    return np.radians(out)
+            raise InputError(f"{key}[{i}] is {_text(a)} deg, outside [-180, 180]", source=source)
+        out[i] = _degrees_to_radians(a)
+    return out
 
 
 def _data_array(value: Any, key: str, source: str) -> np.ndarray:
@@ -240,7 +315,10 @@ def _data_array(value: Any, key: str, source: str) -> np.ndarray:
 
 
 def _short(x: Any) -> str:
-    s = json.dumps(x) if not isinstance(x, float) or math.isfinite(x) else str(x)
+    try:
+        s = _enc(x) if not isinstance(x, float) or math.isfinite(x) else str(x)
+    except (TypeError, ValueError):
+        s = repr(x)
     return s if len(s) <= 40 else s[:37] + "..."
 
 
@@ -433,7 +511,7 @@ def load_fold(path: str | os.PathLike) -> FoldModel:
     if not text.strip():
         raise InputError("empty file (a FOLD file is a JSON object)", source=source)
     try:
-        d = json.loads(text, parse_constant=_reject_constant)
+        d = json.loads(text, parse_float=_Num, parse_constant=_reject_constant)
     except json.JSONDecodeError as exc:
         raise InputError(f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", source=source) from None
     except ValueError as exc:
