@@ -1,0 +1,138 @@
+"""`fabkit unfold IN.obj -o FLAT.obj`: planar development with error metrics and cut files."""
+from __future__ import annotations
+
+import contextlib
+import math
+import sys
+from pathlib import Path
+
+from fabkit.commands._common import add_common, progress, say, to_jsonable
+
+HELP = """Unfold a panel into its flat pattern (paper §2.8, §3.3) and write cut files.
+
+FLAT.obj has IN's vertex order, faces and face/vertex data, with z = 0 (metres). The isometric
+method minimises the relative length deviation of every edge and face diagonal, starting from an
+exact face-by-face layout; conformal (LSCM) and authalic developments are there for comparison.
+The error metrics are the paper's: mean and max of |l2D - l3D| / l3D over edges and diagonals.
+
+Cut files are in millimetres: layers CUT (outline), MOUNTAIN and VALLEY (score lines), SCORE
+(creases whose sense is unknown: flat input) and LABEL. Creases are the edges between faces of
+different face_data "strip" when IN has strip tags, else edges folded by more than --crease-angle.
+
+Exit codes: 0 ok; 1 a check failed (--max-error exceeded, flipped faces or a self-overlapping
+outline: files are still written and the report says which); 2 bad input (nothing written).
+
+Example:
+  fabkit generate reflect -o panel.obj
+  fabkit unfold panel.obj -o flat.obj --dxf flat.dxf --svg flat.svg --png flat.png --max-error 1e-6
+"""
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("input", metavar="IN.obj", help="the folded (relaxed) panel")
+    parser.add_argument("-o", "--output", metavar="FLAT.obj", required=True, help="flat pattern mesh (z = 0)")
+    parser.add_argument("--dxf", metavar="F.dxf", help="DXF cut file (millimetres)")
+    parser.add_argument("--svg", metavar="F.svg", help="SVG cut file (millimetres)")
+    parser.add_argument("--png", metavar="F.png", help="picture of the pattern coloured by length deviation")
+    parser.add_argument("--method", choices=("isometric", "conformal", "authalic"), default="isometric",
+                        help="development method (default: isometric)")
+    parser.add_argument("--max-error", type=float, metavar="E",
+                        help="fail (exit 1) when the max relative edge/diagonal length deviation exceeds E")
+    parser.add_argument("--panel-id", metavar="ID", help="label written on the cut files (default: IN's name)")
+    parser.add_argument("--crease-angle", type=float, default=5.0, metavar="DEG",
+                        help="untagged panels: edges folded by more than this many degrees are creases (default 5)")
+    parser.add_argument("--label-edges", action="store_true", help="write boundary edge ids on the LABEL layer")
+    add_common(parser)
+
+
+def _check_args(args) -> None:
+    from fabkit.errors import InputError
+
+    if args.max_error is not None and not (math.isfinite(args.max_error) and args.max_error > 0):
+        raise InputError(f"must be a positive number, got {args.max_error}", source="--max-error")
+    if not (math.isfinite(args.crease_angle) and 0 < args.crease_angle < 180):
+        raise InputError(f"must be in (0, 180) degrees, got {args.crease_angle}", source="--crease-angle")
+    outputs = [p for p in (args.output, args.dxf, args.svg, args.png, args.report) if p]
+    resolved = [Path(p).resolve() for p in outputs]
+    if len(set(resolved)) != len(resolved):
+        raise InputError("two outputs name the same file", source=", ".join(outputs))
+    if Path(args.input).resolve() in resolved:
+        raise InputError("an output would overwrite the input", source=args.input)
+    for p in outputs:
+        parent = Path(p).parent
+        if not parent.is_dir():
+            raise InputError("output directory does not exist", source=p)
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from fabkit.commands._common import write_json
+    from fabkit.cutfiles import crease_assignment, cut_pattern, dxf_document, svg_text
+    from fabkit.errors import InputError
+    from fabkit.io.atomic import atomic_path
+    from fabkit.io.obj import format_obj, load_obj
+    from fabkit.unfold import develop
+    from fabkit.unfold.plot import plot_unfold_error
+
+    _check_args(args)
+    mesh = load_obj(args.input)
+    with progress(args, f"unfolding ({args.method})", total=None):
+        try:
+            dev = develop(mesh, method=args.method)
+        except InputError as exc:
+            raise exc.with_source(args.input) from None
+    panel_id = args.panel_id if args.panel_id is not None else Path(args.input).stem
+    assignment = crease_assignment(mesh, np.radians(args.crease_angle))
+    pattern = cut_pattern(mesh, dev.uv, assignment, panel_id, label_edges=args.label_edges) \
+        if (args.dxf or args.svg) else None
+
+    problems = []
+    if args.max_error is not None and dev.max_relative_deviation > args.max_error:
+        problems.append(f"max relative length deviation {dev.max_relative_deviation:.3g} exceeds --max-error "
+                        f"{args.max_error:.3g}")
+    if dev.n_flipped:
+        problems.append(f"{dev.n_flipped} faces flipped in the development (first: {int(dev.flipped_faces[0])})")
+    if dev.outline_self_overlaps:
+        problems.append("the outline of the development overlaps itself")
+    if not dev.converged:
+        problems.append(f"the solver did not converge: {dev.message}")
+
+    outputs = {"mesh": args.output, "dxf": args.dxf, "svg": args.svg, "png": args.png}
+    report = {
+        "format": "fabkit.unfold/1",
+        "input": str(args.input),
+        "panel_id": panel_id,
+        "outputs": {k: v for k, v in outputs.items() if v},
+        "ok": not problems,
+        "problems": problems,
+        "max_error": args.max_error,
+        "development": dev.summary(),
+        "creases": {"source": assignment.source, **assignment.counts()},
+        "units": {"mesh": "m", "cut_files": "mm"},
+    }
+    # Every output goes to a temporary file first; all are renamed only when all were written.
+    with contextlib.ExitStack() as stack:
+        tmp = {k: stack.enter_context(atomic_path(v)) for k, v in outputs.items() if v}
+        Path(tmp["mesh"]).write_text(format_obj(dev.mesh(mesh), header=f"flat pattern of {args.input} "
+                                                f"({args.method}, metres, z = 0)"), encoding="utf-8")
+        if args.dxf:
+            dxf_document(pattern).saveas(tmp["dxf"])
+        if args.svg:
+            Path(tmp["svg"]).write_text(svg_text(pattern), encoding="utf-8")
+        if args.png:
+            plot_unfold_error(mesh, dev, tmp["png"], title=f"{panel_id}: {args.method} development")
+        if args.report:
+            report_tmp = stack.enter_context(atomic_path(args.report))
+            write_json(report_tmp, to_jsonable(report))
+
+    s = dev.summary()
+    say(args, f"unfold {args.input}: {mesh.n_vertices} vertices, {args.method}: relative length deviation "
+              f"mean {s['mean_relative_deviation']:.3g}, max {s['max_relative_deviation']:.3g} "
+              f"(max {s['max_absolute_deviation_m'] * 1000:.3g} mm); {s['flipped_faces']} flipped faces; "
+              f"outline {'overlaps itself' if s['outline_self_overlaps'] else 'simple'}; "
+              f"creases M {assignment.counts()['M']} V {assignment.counts()['V']} U {assignment.counts()['U']}")
+    say(args, "wrote " + ", ".join(v for v in [*outputs.values(), args.report] if v))
+    for p in problems:
+        print(f"fabkit unfold: FAILED: {p}", file=sys.stderr)
+    return 1 if problems else 0

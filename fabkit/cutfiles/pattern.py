@@ -1,0 +1,80 @@
+"""The drawing a cutter gets, in millimetres: outline, mountain/valley score lines, labels.
+
+`cut_pattern` turns a development (metres) into a `CutPattern` (millimetres) that the DXF and SVG
+writers only draw; both files therefore always show the same geometry.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fabkit.cutfiles.creases import CreaseAssignment, chain_edges
+from fabkit.mesh import PolyMesh
+
+__all__ = ["CutPattern", "Label", "cut_pattern", "LAYERS", "MM_PER_M"]
+
+MM_PER_M = 1000.0
+
+#: layer name -> (DXF colour index (ACI), SVG colour, what it is)
+LAYERS = {
+    "CUT": (7, "#000000", "outline: cut through"),
+    "MOUNTAIN": (1, "#d62728", "mountain fold score line"),
+    "VALLEY": (5, "#1f4fd6", "valley fold score line"),
+    "SCORE": (6, "#b000b0", "crease of unknown mountain/valley sense"),
+    "LABEL": (3, "#2ca02c", "panel id and edge ids (engrave or ignore)"),
+}
+_SCORE_LAYER = {"M": "MOUNTAIN", "V": "VALLEY", "U": "SCORE"}
+
+
+@dataclass(frozen=True)
+class Label:
+    text: str
+    x: float
+    y: float
+    height: float
+    layer: str = "LABEL"
+
+
+@dataclass(frozen=True)
+class CutPattern:
+    """`outlines`: closed loops (k, 2) in mm (first the outer one, counter-clockwise);
+    `polylines`: layer -> open or closed vertex chains (k, 2) in mm; `labels`; `extent` (2, 2) mm
+    bounding box of the outline; `panel_id`."""
+
+    outlines: tuple
+    polylines: dict
+    labels: tuple
+    extent: np.ndarray
+    panel_id: str
+
+
+def cut_pattern(mesh: PolyMesh, uv: np.ndarray, assignment: CreaseAssignment, panel_id: str = "",
+                label_edges: bool = False) -> CutPattern:
+    """Build the drawing of `uv` (metres, the panel's vertex order) with `assignment`'s creases."""
+    P = np.asarray(uv, dtype=np.float64)[:, :2] * MM_PER_M
+    loops = [P[loop] for loop in mesh.boundary_loops]
+    areas = [0.5 * np.sum(q[:, 0] * np.roll(q[:, 1], -1) - q[:, 1] * np.roll(q[:, 0], -1)) for q in loops]
+    order = np.argsort(-np.abs(np.array(areas)))
+    outlines = tuple(loops[i] for i in order)
+    polylines = {}
+    for kind, layer in _SCORE_LAYER.items():
+        e = mesh.edges[assignment.edges_with(kind)]
+        if len(e):
+            polylines[layer] = tuple(P[np.array(c)] for c in chain_edges(e))
+    lo, hi = outlines[0].min(axis=0), outlines[0].max(axis=0)
+    size = float(np.linalg.norm(hi - lo))
+    h = float(np.clip(0.02 * size, 2.0, 20.0))
+    labels = []
+    if panel_id:
+        # the label goes at the centroid of the face nearest the development's centroid: inside the sheet
+        t = mesh.topology
+        fc = np.add.reduceat(P[t.face_indices], t.face_offsets[:-1], axis=0) / t.face_sizes[:, None]
+        f = int(np.argmin(np.linalg.norm(fc - P[t.used_vertex_mask].mean(axis=0), axis=1)))
+        labels.append(Label(str(panel_id), float(fc[f, 0]), float(fc[f, 1]), h))
+    if label_edges:
+        b = np.flatnonzero(mesh.topology.boundary_edge_mask)
+        mid = 0.5 * (P[mesh.edges[b, 0]] + P[mesh.edges[b, 1]])
+        labels.extend(Label(f"e{int(e)}", float(x), float(y), h / 3) for e, (x, y) in zip(b, mid))
+    return CutPattern(outlines=outlines, polylines=polylines, labels=tuple(labels),
+                      extent=np.array([lo, hi]), panel_id=str(panel_id))
