@@ -1,0 +1,317 @@
+"""Robot cell descriptions (`cells/*.toml`): robot, tool, fixture, obstacles, limits.
+
+`load_cell(path)` reads a TOML file, validates it once and returns a frozen `Cell`. Every problem
+is one `InputError` line naming the file and the key (`tool.shapes[1].radius: ...`): unknown keys,
+wrong types, wrong lengths, non-finite numbers and impossible values (negative sizes, speeds above
+the robot's catalogue limits, a grip output that does not exist, ...).
+
+Poses in the file are UR poses `[x, y, z, rx, ry, rz]` (metres + rotation vector in radians); in
+memory they are 4x4 matrices. Frames: `robot.base_pose` is the robot base (DH frame 0 = the UR
+controller's base frame) in the cell/world frame; `tool.tcp` and `tool.shapes` are in the flange
+(tool0) frame; `fixture.pose` maps the panel frame (where the fold states live; the clamped face
+sits there) to world; obstacles are in world. Shape sizes follow MuJoCo: box = half extents
+(hx, hy, hz), cylinder/capsule = (radius, half_length) along the shape's local z, sphere = (radius,).
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from fabkit.errors import InputError
+from robot.kinematics import MODELS, URModel, get_model
+
+__all__ = ["Cell", "RobotMount", "Tool", "Shape", "Limits", "load_cell", "parse_cell", "pose_to_matrix",
+           "matrix_to_pose", "SHAPE_KINDS"]
+
+SHAPE_KINDS = ("box", "cylinder", "capsule", "sphere")
+#: ur_rtde argument bounds (reference ur-rtde.md): a cell may not ask for more than these.
+MAX_TCP_SPEED = 3.0        # m/s
+MAX_TCP_ACCEL = 150.0      # m/s^2
+MAX_JOINT_ACCEL = 40.0     # rad/s^2
+MAX_CLEARANCE = 0.5        # m: more would make every cell "in collision"
+MAX_TOOL_OUTPUT = {"tool": 1, "standard": 7}  # tool DO 0-1, standard (controller box) DO 0-7
+#: Slack on catalogue joint speeds so that 3.14159 passes for 180 deg/s (rad/s).
+SPEED_SLACK = 1e-4
+
+
+def pose_to_matrix(pose) -> np.ndarray:
+    """UR pose `[x, y, z, rx, ry, rz]` (m, rotation vector rad) -> 4x4 homogeneous matrix."""
+    p = np.asarray(pose, dtype=np.float64).reshape(6)
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(p[3:]).as_matrix()
+    T[:3, 3] = p[:3]
+    return T
+
+
+def matrix_to_pose(T) -> np.ndarray:
+    """4x4 homogeneous matrix (or `(n, 4, 4)`) -> UR pose `[x, y, z, rx, ry, rz]` (`(6,)` / `(n, 6)`)."""
+    T = np.asarray(T, dtype=np.float64)
+    rv = Rotation.from_matrix(T[..., :3, :3]).as_rotvec()
+    return np.concatenate([T[..., :3, 3], rv], axis=-1)
+
+
+@dataclass(frozen=True, eq=False)
+class Shape:
+    """A collision primitive: `kind` in SHAPE_KINDS, `pose` 4x4 in its parent frame, `size` (MuJoCo)."""
+
+    name: str
+    kind: str
+    pose: np.ndarray
+    size: tuple[float, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class RobotMount:
+    """The arm: `model` name ("ur5e" | "ur10e"), `base_pose` 4x4 base -> world, `home` joints (rad)."""
+
+    model: str
+    base_pose: np.ndarray
+    home: np.ndarray
+
+    @property
+    def kinematics(self) -> URModel:
+        return get_model(self.model)
+
+
+@dataclass(frozen=True, eq=False)
+class Tool:
+    """The gripper: `tcp` 4x4 in the flange frame, collision `shapes` in the flange frame, and the
+    digital output that closes it (`grip_output` on the tool connector or the controller's standard
+    outputs, `grip_output_kind` "tool" | "standard")."""
+
+    tcp: np.ndarray
+    shapes: tuple[Shape, ...]
+    grip_output: int
+    grip_output_kind: str
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Motion limits: TCP speed [m/s] and acceleration [m/s^2], joint speeds [rad/s] (6), joint
+    acceleration [rad/s^2], and the clearance [m] every robot/tool part keeps from obstacles."""
+
+    tcp_speed: float
+    tcp_accel: float
+    joint_speed: tuple[float, ...]
+    joint_accel: float
+    clearance: float
+
+
+@dataclass(frozen=True, eq=False)
+class Cell:
+    """A robot cell (module docstring); `fixture` is the panel frame -> world 4x4."""
+
+    name: str
+    description: str
+    robot: RobotMount
+    tool: Tool
+    fixture: np.ndarray
+    obstacles: tuple[Shape, ...]
+    limits: Limits
+    source: str
+
+    @property
+    def model(self) -> URModel:
+        return self.robot.kinematics
+
+    @property
+    def world_to_base(self) -> np.ndarray:
+        """4x4 mapping world coordinates into the robot base frame."""
+        return np.linalg.inv(self.robot.base_pose)
+
+    @property
+    def panel_to_base(self) -> np.ndarray:
+        """4x4 mapping the panel frame (fold states) into the robot base frame."""
+        return self.world_to_base @ self.fixture
+
+
+# ---- validation --------------------------------------------------------------------------------
+
+class _Reader:
+    """Typed access to a TOML table that names the key in every error."""
+
+    def __init__(self, table: dict, where: str, source: str):
+        self.table, self.where, self.source = table, where, source
+        self.used: set[str] = set()
+
+    def key(self, name: str) -> str:
+        return f"{self.where}.{name}" if self.where else name
+
+    def fail(self, name: str, message: str):
+        raise InputError(f"{self.key(name)}: {message}", source=self.source)
+
+    def has(self, name: str) -> bool:
+        return name in self.table
+
+    def raw(self, name: str, required: bool = True, default: Any = None) -> Any:
+        self.used.add(name)
+        if name not in self.table:
+            if required:
+                raise InputError(f"{self.key(name)}: missing (required)", source=self.source)
+            return default
+        return self.table[name]
+
+    def string(self, name: str, required: bool = True, default: str = "", choices=None) -> str:
+        v = self.raw(name, required, default)
+        if not isinstance(v, str):
+            self.fail(name, f"expected a string, got {type(v).__name__} {v!r}")
+        if choices is not None and v not in choices:
+            self.fail(name, f"{v!r} is not one of {', '.join(map(repr, choices))}")
+        return v
+
+    def number(self, name: str, required: bool = True, default: float | None = None, lo: float | None = None,
+               hi: float | None = None, lo_open: bool = False, unit: str = "") -> float:
+        v = self.raw(name, required, default)
+        return _number(v, self.key(name), self.source, lo, hi, lo_open, unit)
+
+    def integer(self, name: str, required: bool = True, default: int = 0, lo: int | None = None,
+                hi: int | None = None) -> int:
+        v = self.raw(name, required, default)
+        if isinstance(v, bool) or not isinstance(v, int):
+            self.fail(name, f"expected an integer, got {type(v).__name__} {v!r}")
+        if (lo is not None and v < lo) or (hi is not None and v > hi):
+            self.fail(name, f"{v} is outside {lo}..{hi}")
+        return int(v)
+
+    def vector(self, name: str, n: int, required: bool = True, default=None, lo=None, hi=None, lo_open=False,
+               unit: str = "") -> np.ndarray:
+        v = self.raw(name, required, default)
+        if not isinstance(v, (list, tuple)):
+            self.fail(name, f"expected a list of {n} numbers, got {type(v).__name__} {v!r}")
+        if len(v) != n:
+            self.fail(name, f"expected {n} numbers, got {len(v)}")
+        return np.array([_number(x, f"{self.key(name)}[{i}]", self.source, lo, hi, lo_open, unit)
+                         for i, x in enumerate(v)])
+
+    def pose(self, name: str, required: bool = True) -> np.ndarray:
+        p = self.vector(name, 6, required, default=[0.0] * 6)
+        if np.linalg.norm(p[:3]) > 100.0:
+            self.fail(name, f"position {p[:3].tolist()} m is more than 100 m from the origin (millimetres?)")
+        return pose_to_matrix(p)
+
+    def table_(self, name: str, required: bool = True) -> "_Reader":
+        v = self.raw(name, required, {})
+        if not isinstance(v, dict):
+            self.fail(name, f"expected a table, got {type(v).__name__}")
+        return _Reader(v, self.key(name), self.source)
+
+    def tables(self, name: str) -> list["_Reader"]:
+        v = self.raw(name, False, [])
+        if not isinstance(v, list) or not all(isinstance(t, dict) for t in v):
+            self.fail(name, "expected an array of tables ([[...]])")
+        return [_Reader(t, f"{self.key(name)}[{i}]", self.source) for i, t in enumerate(v)]
+
+    def done(self) -> None:
+        """Reject keys nobody read (typos would otherwise be silently ignored)."""
+        extra = [k for k in self.table if k not in self.used]
+        if extra:
+            raise InputError(f"{self.key(extra[0])}: unknown key", source=self.source)
+
+
+def _number(v, key: str, source: str, lo=None, hi=None, lo_open=False, unit="") -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise InputError(f"{key}: expected a number, got {type(v).__name__} {v!r}", source=source)
+    v = float(v)
+    u = f" {unit}" if unit else ""
+    if not math.isfinite(v):
+        raise InputError(f"{key}: {v} is not finite", source=source)
+    if lo is not None and (v <= lo if lo_open else v < lo):
+        raise InputError(f"{key}: {v:.12g}{u} must be {'>' if lo_open else '>='} {lo:.12g}{u}", source=source)
+    if hi is not None and v > hi:
+        raise InputError(f"{key}: {v:.12g}{u} must be <= {hi:.12g}{u}", source=source)
+    return v
+
+
+def _shape(r: _Reader, default_name: str, need_name: bool) -> Shape:
+    name = r.string("name", required=need_name, default=default_name)
+    if need_name and not name.strip():
+        r.fail("name", "must not be empty")
+    kind = r.string("kind", choices=SHAPE_KINDS)
+    pose = r.pose("pose", required=False)
+    if kind == "box":
+        size = tuple(r.vector("size", 3, lo=0.0, lo_open=True, unit="m"))
+    elif kind == "sphere":
+        size = (r.number("radius", lo=0.0, lo_open=True, unit="m"),)
+    else:
+        size = (r.number("radius", lo=0.0, lo_open=True, unit="m"),
+                r.number("half_length", lo=0.0, lo_open=True, unit="m"))
+    r.done()
+    return Shape(name=name, kind=kind, pose=pose, size=size)
+
+
+def parse_cell(data: dict, source: str) -> Cell:
+    """Validate a parsed TOML document (see `load_cell`)."""
+    top = _Reader(data, "", source)
+    name = top.string("name")
+    if not name.strip():
+        top.fail("name", "must not be empty")
+    description = top.string("description", required=False)
+
+    rr = top.table_("robot")
+    model = rr.string("model", choices=tuple(MODELS))
+    urm = get_model(model)
+    base_pose = rr.pose("base_pose")
+    home = rr.vector("home", 6, required=False, default=[0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0],
+                     unit="rad")
+    for i, q in enumerate(home):
+        if not urm.q_min[i] <= q <= urm.q_max[i]:
+            rr.fail("home", f"joint {i + 1} = {q:.12g} rad is outside [{urm.q_min[i]:.6g}, {urm.q_max[i]:.6g}]")
+    rr.done()
+
+    tr = top.table_("tool")
+    tcp = tr.pose("tcp")
+    if np.linalg.norm(tcp[:3, 3]) > 1.0:
+        tr.fail("tcp", f"TCP is {np.linalg.norm(tcp[:3, 3]):.6g} m from the flange (more than 1 m)")
+    kind = tr.string("grip_output_kind", required=False, default="tool", choices=("tool", "standard"))
+    grip = tr.integer("grip_output", lo=0, hi=MAX_TOOL_OUTPUT[kind])
+    shapes = tuple(_shape(s, f"tool_{i}", False) for i, s in enumerate(tr.tables("shapes")))
+    tr.done()
+
+    fr = top.table_("fixture")
+    fixture = fr.pose("pose")
+    fr.done()
+
+    obstacles = tuple(_shape(o, "", True) for o in top.tables("obstacles"))
+    names = [o.name for o in obstacles]
+    for i, n in enumerate(names):
+        if n in names[:i]:
+            raise InputError(f"obstacles[{i}].name: {n!r} is used twice", source=source)
+
+    lr = top.table_("limits")
+    limits = Limits(
+        tcp_speed=lr.number("tcp_speed", lo=0.0, lo_open=True, hi=MAX_TCP_SPEED, unit="m/s"),
+        tcp_accel=lr.number("tcp_accel", lo=0.0, lo_open=True, hi=MAX_TCP_ACCEL, unit="m/s^2"),
+        joint_speed=tuple(lr.vector("joint_speed", 6, lo=0.0, lo_open=True, unit="rad/s")),
+        joint_accel=lr.number("joint_accel", lo=0.0, lo_open=True, hi=MAX_JOINT_ACCEL, unit="rad/s^2"),
+        clearance=lr.number("clearance", lo=0.0, hi=MAX_CLEARANCE, unit="m"),
+    )
+    for i, (v, vmax) in enumerate(zip(limits.joint_speed, urm.joint_speed_max)):
+        if v > vmax + SPEED_SLACK:
+            lr.fail("joint_speed", f"joint {i + 1} = {v:.12g} rad/s exceeds the {model}'s {vmax:.6g} rad/s")
+    lr.done()
+    top.done()
+    return Cell(name=name, description=description, robot=RobotMount(model, base_pose, home),
+                tool=Tool(tcp=tcp, shapes=shapes, grip_output=grip, grip_output_kind=kind),
+                fixture=fixture, obstacles=obstacles, limits=limits, source=source)
+
+
+def load_cell(path: str | Path) -> Cell:
+    """Read and validate a cell TOML file; `InputError` (one line, file + key) on any problem."""
+    path = Path(path)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise InputError("cell file not found", source=str(path)) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read cell file: {exc}", source=str(path)) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"not valid TOML: {exc}", source=str(path)) from None
+    return parse_cell(data, str(path))
