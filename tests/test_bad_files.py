@@ -1,0 +1,143 @@
+"""Every malformed file in tests/data/bad: `fabkit info` exits 2 with one line naming the file and the
+problem, no traceback, and leaves no report behind; the Python readers raise InputError naming the file."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+
+from fabkit.errors import InputError
+
+BAD = Path(__file__).parent / "data" / "bad"
+ROOT = Path(__file__).parent.parent
+
+#: file -> words the one-line error must contain (the problem, said specifically)
+EXPECTED: dict[str, str] = {
+    "ascii-stl-renamed.obj": "line 1: unknown OBJ statement solid",
+    "assignment-not-string.fold": "edges_assignment[3] is 1",
+    "assignment-unknown-letter.fold": 'edges_assignment[3] is "X"',
+    "assignment-wrong-length.fold": "edges_assignment has 6 entries for 7 edges",
+    "bad-face-token.obj": "line 5: face corner 'x' is not a vertex index",
+    "bad-number.obj": "line 2: vertex coordinates '1 0 zero' are not numbers",
+    "binary-junk.fold": "binary data",
+    "binary-junk.obj": "binary data",
+    "clockwise-crease-pattern.fold": "face 0 is clockwise",
+    "coords-four-values.fold": "vertices_coords[1]",
+    "coords-not-a-list.fold": "vertices_coords must be a list",
+    "coords-string-entry.fold": "vertices_coords[1]",
+    "duplicate-edge.fold": "edges 5 and 6 both join vertices",
+    "edges-float-index.fold": "edges_vertices[3]",
+    "edges-index-out-of-range.fold": "edge 6 refers to vertex [4, 6]",
+    "edges-negative-index.fold": "edge 6 refers to vertex [-1, 5]",
+    "edges-three-vertices.fold": "edges_vertices[1]",
+    "empty-faces.fold": "no faces",
+    "empty.fold": "empty file",
+    "empty.obj": "no faces",
+    "fabkit-data-bad-json.obj": "line 6: cannot read fabkit face_data 'strip'",
+    "fabkit-data-wrong-length.obj": "line 6: fabkit face_data 'strip' has 3 entries for 1 faces",
+    "face-repeated-vertex.fold": "face 1 repeats vertex 2",
+    "face-side-without-edge.fold": "face 1 has side (5, 4) that is not in edges_vertices",
+    "face-two-vertices.fold": "face 1 has 2 vertices",
+    "face-two-vertices.obj": "line 5: face 0 has 2 vertices",
+    "faces-data-wrong-length.fold": "faces_fabkit:strip has 3 entries for 2 faces",
+    "faces-index-out-of-range.fold": "face 1 refers to vertex 7",
+    "faces-negative-index.fold": "face 1 refers to vertex -1",
+    "foldangle-over-180.fold": "outside [-180, 180]",
+    "foldangle-sign-contradicts-valley.fold": "edge 3 is a valley (V) but its fold angle is -90 deg",
+    "foldangle-string.fold": 'edges_foldAngle[3] is "90"',
+    "foldangle-wrong-length.fold": "edges_foldAngle has 8 entries for 7 edges",
+    "frame-changes-topology.fold": "frame 1): overrides faces_vertices",
+    "frame-foldangle-sign.fold": "frame 1: edge 3 is a valley (V) but its fold angle is -45 deg",
+    "frame-inherit-not-bool.fold": "frame_inherit must be true or false",
+    "frame-inherit-without-parent.fold": "frame_parent is missing",
+    "frame-not-inheriting-no-coords.fold": "has no vertices_coords and does not inherit them",
+    "frame-parent-out-of-range.fold": "frame_parent 5 must be an earlier frame",
+    "frame-parent-self.fold": "frame_parent 1 must be an earlier frame",
+    "frame-wrong-vertex-count.fold": "frame 1: vertices_coords has shape (3, 3), expected (6, 3)",
+    "frames-not-a-list.fold": "file_frames must be a list",
+    "inconsistent-orientation.fold": "inconsistent orientation",
+    "inconsistent-orientation.obj": "inconsistent orientation",
+    "index-out-of-range.obj": "line 5: face refers to vertex 9",
+    "inf-coordinate.obj": "vertex 2 (line 3) has a non-finite coordinate",
+    "latin1-text.obj": "invalid UTF-8",
+    "nan-coordinate.fold": "NaN is not valid JSON",
+    "nan-coordinate.obj": "vertex 2 (line 3) has a non-finite coordinate",
+    "negative-index-out-of-range.obj": "line 5: face refers to vertex -9",
+    "no-faces.fold": "no faces_vertices",
+    "no-faces.obj": "no faces (4 vertices)",
+    "no-vertices.fold": "no vertices_coords",
+    "non-manifold-crease.fold": "edge 3 (V) borders 3 faces [0, 1, 2]",
+    "non-manifold-edge.obj": "shared by 3 faces [0, 1, 2]",
+    "only-comments.obj": "no faces",
+    "overflow-coordinate.fold": "coordinates must be finite",
+    "repeated-vertex.obj": "face 0 (line 5) repeats vertex 1",
+    "spec-not-a-number.fold": "file_spec",
+    "top-level-array.fold": "a FOLD file is a JSON object, got list",
+    "truncated-json.fold": "invalid JSON at line 34",
+    "unknown-unit.fold": 'frame_unit "furlong" is not a FOLD unit',
+    "unsupported-suffix.ply": "cannot read '.ply'",
+    "vertex-two-coordinates.obj": "line 1: vertex needs x y z",
+    "whitespace-only.fold": "empty file",
+    "zero-area-face.fold": "face 0 has zero area",
+    "zero-area-face.obj": "face 0 (line 4) has zero area",
+    "zero-index.obj": "OBJ vertex indices start at 1",
+}
+
+
+def test_corpus_is_complete():
+    files = sorted(p.name for p in BAD.iterdir())
+    assert files == sorted(EXPECTED), "every bad file needs an expected message (and vice versa)"
+    assert len(files) >= 30
+    assert sum(f.endswith(".obj") for f in files) >= 15 and sum(f.endswith(".fold") for f in files) >= 15
+
+
+def _run_info(name: str, out_dir: Path) -> tuple[subprocess.CompletedProcess, Path]:
+    report = out_dir / f"{name}.report.json"
+    proc = subprocess.run([sys.executable, "-m", "fabkit", "info", str(BAD / name), "--report", str(report)],
+                          capture_output=True, text=True, timeout=60, cwd=ROOT)
+    return proc, report
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """Run `fabkit info` on the whole corpus once, two processes at a time."""
+    out = tmp_path_factory.mktemp("bad-reports")
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        results = dict(zip(EXPECTED, pool.map(lambda n: _run_info(n, out), EXPECTED)))
+    return results, out
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_info_refuses_bad_file(runs, name):
+    results, out = runs
+    proc, report = results[name]
+    assert proc.returncode == 2, (proc.stdout, proc.stderr)
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1, proc.stderr
+    line = lines[0]
+    assert "Traceback" not in proc.stderr and "internal error" not in line
+    assert line.startswith(f"fabkit info: error: {BAD / name}: "), line
+    assert EXPECTED[name] in line, line
+    assert proc.stdout == ""
+    assert not report.exists()
+
+
+def test_no_partial_files_left(runs):
+    results, out = runs
+    assert list(out.iterdir()) == []  # neither reports nor temporary files
+
+
+@pytest.mark.parametrize("name", sorted(n for n in EXPECTED if n.endswith((".obj", ".fold"))))
+def test_python_readers_raise_input_error_naming_the_file(name):
+    from fabkit.io import load_mesh
+
+    path = BAD / name
+    with pytest.raises(InputError) as err:
+        load_mesh(path)
+    assert err.value.source == str(path)
+    assert str(err.value).startswith(f"{path}: ")
+    assert EXPECTED[name] in str(err.value)
+    assert "\n" not in str(err.value)
