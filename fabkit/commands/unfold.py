@@ -59,9 +59,10 @@ def _check_args(args) -> None:
     if Path(args.input).resolve() in resolved:
         raise InputError("an output would overwrite the input", source=args.input)
     for p in outputs:
-        parent = Path(p).parent
-        if not parent.is_dir():
+        if not Path(p).parent.is_dir():
             raise InputError("output directory does not exist", source=p)
+        if Path(p).is_dir():
+            raise InputError("is a directory, not a file name", source=p)
 
 
 def run(args) -> int:
