@@ -135,7 +135,7 @@ def _check_counts(entries: dict, count: int, kind: str, source: str) -> dict[str
     for name, (number, arr) in entries.items():
         if len(arr) != count:
             raise InputError(f"line {number}: fabkit {kind}_data '{name}' has {len(arr)} entries for "
-                             f"{count} {kind}{'ices' if kind == 'vertex' else 's'}", source=source)
+                             f"{count} {'vertices' if kind == 'vertex' else 'faces'}", source=source)
         out[name] = arr
     return out
 
