@@ -164,10 +164,15 @@ def add_arm(spec: mujoco.MjSpec, parent, model, *, margin: float = 0.0, prefix: 
         joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
         names["bodies"].append(body.name)
         names["joints"].append(joint.name)
+        # The shoulder housing only turns about the base axis and is symmetric about it: its
+        # distance to the environment (the mounting table) is the same in every configuration, a
+        # property of the cell layout rather than of the motion, so it is kept out of environment
+        # contacts (the static base cylinder is too: MuJoCo never pairs static geoms).
+        affinity = BIT_ARM | BIT_TOOL | BIT_PANEL | (0 if i == 0 else BIT_ENV)
         for cname, radius, p0, p1 in caps:
             g = body.add_geom(name=prefix + cname, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                               size=[radius, 0, 0], fromto=[*p0, *p1],
-                              contype=BIT_ARM, conaffinity=BIT_ARM | BIT_TOOL | BIT_ENV | BIT_PANEL,
+                              contype=BIT_ARM, conaffinity=affinity,
                               margin=margin, rgba=[0.55, 0.6, 0.68, 1])
             names["geoms"].append(g.name)
         act = spec.add_actuator(name=prefix + JOINT_NAMES[i], target=joint.name,

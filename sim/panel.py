@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-__all__ = ["PanelPieces", "panel_pieces", "piece_poses", "interpolate_poses"]
+__all__ = ["PanelPieces", "PanelModel", "panel_pieces", "piece_poses", "interpolate_poses", "panel_model"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,3 +113,53 @@ def interpolate_poses(pos: np.ndarray, quat: np.ndarray, s: float) -> tuple[np.n
     q = (1 - t) * q0 + t * sign * q1
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     return (1 - t) * pos[k] + t * pos[k + 1], q
+
+
+@dataclass(frozen=True, eq=False)
+class PanelModel:
+    """The panel for the cell model: convex pieces and their world poses in every fold state.
+
+    `pos` (S, F, 3) and `quat` (S, F, 4, scalar first) are in the world frame (fixture applied);
+    `grip_face` the face the tool holds (its contact with the tool is excluded), or None;
+    `fit_residual` (S, F) how far each state departs from a rigid motion of each face (m).
+    """
+
+    pieces: PanelPieces
+    pos: np.ndarray
+    quat: np.ndarray
+    grip_face: int | None = None
+    fit_residual: np.ndarray | None = None
+
+    @property
+    def n_states(self) -> int:
+        return int(self.pos.shape[0])
+
+    def poses_at(self, s: float) -> tuple[np.ndarray, np.ndarray]:
+        """World poses (F, 3), (F, 4) of the pieces at fractional fold state `s`."""
+        return interpolate_poses(self.pos, self.quat, s)
+
+
+def panel_model(reference_vertices, faces, states_vertices, fixture, *, grip_face: int | None = None,
+                thickness: float = 0.001) -> PanelModel:
+    """Pieces from the reference (flat) vertices and faces, posed for each state in the world.
+
+    `states_vertices` (S, n, 3): vertex coordinates of every fold state in the panel frame;
+    `fixture` 4x4: panel frame -> world.
+    """
+    pieces = panel_pieces(reference_vertices, faces, thickness)
+    S = np.asarray(states_vertices, dtype=np.float64)
+    if S.ndim != 3 or S.shape[1:] != np.asarray(reference_vertices).shape:
+        raise ValueError(f"fold states must be (S, {len(reference_vertices)}, 3), got {S.shape}")
+    if grip_face is not None and not 0 <= int(grip_face) < len(pieces):
+        raise ValueError(f"grip face {grip_face} is not a face of the panel ({len(pieces)} faces)")
+    Fx = np.asarray(fixture, dtype=np.float64)
+    rot_fix = Rotation.from_matrix(Fx[:3, :3])
+    pos = np.zeros((len(S), len(pieces), 3))
+    quat = np.zeros((len(S), len(pieces), 4))
+    res = np.zeros((len(S), len(pieces)))
+    for k, V in enumerate(S):
+        p, q, res[k] = piece_poses(pieces, V)
+        pos[k] = p @ Fx[:3, :3].T + Fx[:3, 3]
+        world = rot_fix * Rotation.from_quat(q[:, [1, 2, 3, 0]])
+        quat[k] = world.as_quat()[:, [3, 0, 1, 2]]
+    return PanelModel(pieces, pos, quat, None if grip_face is None else int(grip_face), res)

@@ -1,0 +1,161 @@
+"""Offscreen pictures of the cell: a PNG of one configuration, an MP4 of a whole program.
+
+MuJoCo picks its OpenGL backend from `MUJOCO_GL` when `mujoco` is first imported, so
+`select_gl_backend()` must run before anything imports mujoco (the CLI calls it first thing). This
+module therefore imports mujoco only inside its functions. Backends: EGL (headless, Mesa llvmpipe
+works without a GPU), then OSMesa where the project's setup installed it; `Renderer.close()` is
+always called explicitly (its `__del__` prints a traceback at interpreter exit otherwise).
+"""
+from __future__ import annotations
+
+import ctypes.util
+import math
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from fabkit.errors import InputError
+from fabkit.io.atomic import atomic_path
+
+__all__ = ["select_gl_backend", "render_frames", "write_png", "write_mp4", "camera_for_cell", "view"]
+
+
+def select_gl_backend() -> str | None:
+    """Choose an offscreen OpenGL backend for MuJoCo; returns its name, or None if there is none.
+
+    Respects an explicit `MUJOCO_GL`. Otherwise sets `egl` when libEGL is installed, else `osmesa`
+    (with `PYOPENGL_PLATFORM=osmesa`) when libOSMesa is. Has no effect once mujoco is imported.
+    """
+    chosen = os.environ.get("MUJOCO_GL")
+    if chosen:
+        return chosen
+    if "mujoco" in sys.modules:
+        return None  # too late to choose; MuJoCo falls back to GLFW, which needs a display
+    if ctypes.util.find_library("EGL"):
+        os.environ["MUJOCO_GL"] = "egl"
+        os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+        return "egl"
+    if ctypes.util.find_library("OSMesa"):
+        os.environ["MUJOCO_GL"] = "osmesa"
+        os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+        return "osmesa"
+    return None
+
+
+def camera_for_cell(cell):
+    """A free camera looking at the robot and the fixture from the front left, above."""
+    import mujoco
+
+    cam = mujoco.MjvCamera()
+    cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+    base = np.asarray(cell.robot.base_pose)[:3, 3]
+    fixture = np.asarray(cell.fixture)[:3, 3]
+    cam.lookat[:] = 0.5 * (base + np.array([0.0, 0.0, 0.35]) + fixture)
+    cam.distance = max(2.0, 2.6 * float(np.linalg.norm(fixture[:2] - base[:2])) + 1.2)
+    cam.azimuth = 225.0
+    cam.elevation = -28.0
+    return cam
+
+
+def render_frames(model, cell, configs, *, panel=None, states=None, width: int = 640, height: int = 480,
+                  highlight=(), camera=None):
+    """Yield RGB frames (height, width, 3) uint8 for joint configurations `configs` (k, 6).
+
+    `states`: fold state per configuration (poses the panel's mocap pieces); `highlight`: geom
+    names drawn red (e.g. a collision pair).
+    """
+    import mujoco
+
+    if width > model.vis.global_.offwidth or height > model.vis.global_.offheight:
+        raise ValueError(f"frame {width}x{height} exceeds the model's offscreen buffer")
+    rgba = model.geom_rgba.copy()
+    try:
+        for name in highlight:
+            g = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
+            if g >= 0:
+                model.geom_rgba[g] = [0.9, 0.1, 0.1, 1.0]
+        data = mujoco.MjData(model)
+        cam = camera or camera_for_cell(cell)
+        try:
+            renderer = mujoco.Renderer(model, height=height, width=width)
+        except Exception as exc:  # no usable OpenGL context: say which backend failed
+            raise InputError(f"cannot render offscreen with MUJOCO_GL={os.environ.get('MUJOCO_GL', '(unset)')}: "
+                             f"{type(exc).__name__}: {exc}", source="--render") from None
+        try:
+            for k, q in enumerate(np.asarray(configs, dtype=np.float64).reshape(-1, 6)):
+                data.qpos[:] = q
+                if panel is not None:
+                    s = 0.0 if states is None else float(states[k])
+                    data.mocap_pos[:], data.mocap_quat[:] = panel.poses_at(s)
+                mujoco.mj_forward(model, data)
+                renderer.update_scene(data, camera=cam)
+                yield renderer.render().copy()
+        finally:
+            renderer.close()
+    finally:
+        model.geom_rgba[:] = rgba
+
+
+def write_png(path, frame: np.ndarray) -> None:
+    """Write one RGB frame as PNG (atomically)."""
+    import imageio.v3 as iio
+
+    with atomic_path(path) as tmp:
+        iio.imwrite(tmp, frame, extension=".png")
+
+
+def write_mp4(path, frames, fps: int = 30) -> int:
+    """Write RGB frames as an H.264 MP4 (atomically, through imageio-ffmpeg); returns the frame count."""
+    import imageio.v2 as imageio
+
+    n = 0
+    with atomic_path(path) as tmp:
+        writer = imageio.get_writer(str(tmp), format="FFMPEG", mode="I", fps=fps, codec="libx264",
+                                    quality=7, macro_block_size=16, ffmpeg_log_level="error")
+        try:
+            for frame in frames:
+                writer.append_data(frame)
+                n += 1
+        finally:
+            writer.close()
+    return n
+
+
+def movie_indices(dt: np.ndarray, fps: int = 30, max_frames: int = 300) -> tuple[np.ndarray, float]:
+    """Indices of the configurations to show at `fps` in program time (sped up to fit `max_frames`).
+
+    `dt` (M,): time from the previous configuration (NaN = a jump, shown as one frame). Returns the
+    indices and the speed-up factor.
+    """
+    step = np.where(np.isfinite(dt) & (dt > 0), dt, 0.0)
+    t = np.cumsum(step)
+    duration = float(t[-1]) if len(t) else 0.0
+    n = int(min(max_frames, max(2, math.ceil(duration * fps))))
+    speedup = max(1.0, duration * fps / max_frames) if duration > 0 else 1.0
+    idx = np.searchsorted(t, np.linspace(0.0, duration, n), side="left")
+    return np.clip(idx, 0, len(t) - 1), speedup
+
+
+def view(model, cell, configs, *, panel=None, states=None, dt=None) -> None:  # pragma: no cover - needs a display
+    """Play the configurations in MuJoCo's interactive viewer (needs a display)."""
+    import time
+
+    import mujoco
+    import mujoco.viewer
+
+    data = mujoco.MjData(model)
+    with mujoco.viewer.launch_passive(model, data) as v:
+        for k, q in enumerate(np.asarray(configs).reshape(-1, 6)):
+            if not v.is_running():
+                break
+            data.qpos[:] = q
+            if panel is not None:
+                data.mocap_pos[:], data.mocap_quat[:] = panel.poses_at(0.0 if states is None else float(states[k]))
+            mujoco.mj_forward(model, data)
+            v.sync()
+            step = 0.0 if dt is None or not np.isfinite(dt[k]) else float(dt[k])
+            time.sleep(min(step, 0.1))
+        while v.is_running():
+            time.sleep(0.05)
