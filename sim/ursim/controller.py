@@ -1,0 +1,421 @@
+"""The controller stand-in's core: arm, I/O registers, modes and the periodic control tick.
+
+One `Controller` per process. A tick thread runs at the controller period (500 Hz for e-Series
+versions, 125 Hz for CB3) and, each tick, advances the arm, applies the safety checks, wakes the
+running program (URScript's `sync()`), and streams RTDE data packages to every started
+connection. The servers (`rtde_server`, `dashboard`, `script_ports`, `admin`) only read and write
+the state here under `Controller.lock`.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robot import kinematics as K
+from sim.ursim.arm import Arm
+from sim.ursim.motion import matrix_to_pose, pose_to_matrix
+from sim.ursim.rtde_vars import INPUTS
+
+ROBOT_MODES = {-1: "NO_CONTROLLER", 0: "DISCONNECTED", 1: "CONFIRM_SAFETY", 2: "BOOTING", 3: "POWER_OFF",
+               4: "POWER_ON", 5: "IDLE", 6: "BACKDRIVE", 7: "RUNNING", 8: "UPDATING_FIRMWARE"}
+SAFETY_MODES = {1: "NORMAL", 2: "REDUCED", 3: "PROTECTIVE_STOP", 4: "RECOVERY", 5: "SAFEGUARD_STOP",
+                6: "SYSTEM_EMERGENCY_STOP", 7: "ROBOT_EMERGENCY_STOP", 8: "VIOLATION", 9: "FAULT"}
+RUNTIME_STOPPED, RUNTIME_PLAYING, RUNTIME_PAUSED = 1, 2, 4
+ROBOT_RUNNING, ROBOT_POWER_OFF, ROBOT_IDLE = 7, 3, 5
+SAFETY_NORMAL, SAFETY_PROTECTIVE_STOP, SAFETY_ROBOT_ESTOP = 1, 3, 7
+# safety_status_bits (RTDE guide): 0 normal, 2 protective stopped, 6 robot e-stop, 7 emergency
+# stopped, 10 stopped due to safety
+_SAFETY_BITS = {SAFETY_NORMAL: 1 << 0, SAFETY_PROTECTIVE_STOP: (1 << 2) | (1 << 10),
+                SAFETY_ROBOT_ESTOP: (1 << 6) | (1 << 7) | (1 << 10)}
+#: q = [0, -90, 90, -90, -90, 0] deg, UR's home configuration (tool pointing down).
+HOME_Q = (0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0)
+
+
+@dataclass
+class ControllerConfig:
+    """Start-up settings of the stand-in (CLI options of `fabkit ursim` / `python -m sim.ursim`)."""
+
+    host: str = "127.0.0.1"
+    version: tuple = (5, 15, 0, 0)
+    model: str = "ur5e"
+    q0: tuple = HOME_Q
+    robot_mode: int = ROBOT_RUNNING
+    remote_control: bool = True
+    unlock_delay_s: float = 5.0
+    serial: str = "20235500042"
+    ports: dict = field(default_factory=lambda: {"rtde": 30004, "dashboard": 29999, "primary": 30001,
+                                                 "secondary": 30002, "realtime": 30003, "admin": 30020})
+    cell: object = None  # robot.cell.Cell or None
+    collision: object = None  # callable q -> name of the contact pair or None
+    log_file: str | None = None
+    verbose: bool = False
+
+    @property
+    def cb3(self) -> bool:
+        return self.version[0] < 5
+
+
+class Controller:
+    """State of the simulated controller plus its tick thread (see the module docstring)."""
+
+    def __init__(self, config: ControllerConfig):
+        self.cfg = config
+        self.model = K.get_model(config.model)
+        self.period = 1 / 125 if config.cb3 else 1 / 500
+        self.lock = threading.RLock()
+        self.tick_cond = threading.Condition()
+        self.tick_index = 0
+        self.timestamp = 0.0
+        self.arm = Arm(config.q0, self.model.joint_speed_max)
+        self.tcp = np.eye(4)
+        self.payload = 0.0
+        self.payload_cog = np.zeros(3)
+        self.inputs = {name: (0.0 if t == "DOUBLE" else (np.zeros(6) if t == "VECTOR6D" else 0))
+                       for name, t in INPUTS.items()}
+        self.out_int = [0] * 48
+        self.out_double = [0.0] * 48
+        self.digital_out = 0
+        self.analog_out = [0.0, 0.0]
+        self.speed_fraction = 1.0
+        self.robot_mode = config.robot_mode
+        self.safety_mode = SAFETY_NORMAL
+        self.safety_event_time = 0.0
+        self.program = None  # the running program (control_script.ControlScript / urscript.Program)
+        self.paused = False
+        self.loaded_program: str | None = None
+        self.owners: dict[str, int] = {}
+        self.rtde_conns: list = []
+        self.stall_until = 0.0
+        self.reply_delay = 0.0
+        self.stream_decimate = 1
+        self.pending_faults: list[dict] = []
+        self.log_lines: deque = deque(maxlen=2000)
+        self.last_error: str | None = None
+        self._log_fh = open(config.log_file, "a", encoding="utf-8") if config.log_file else None
+        self._stop = threading.Event()
+        self._tcp_pose = np.zeros(6)
+        self._tcp_speed = np.zeros(6)
+        self._flange = np.eye(4)
+        self._q_for_pose = None
+        self._update_pose()
+        self._getters = self._make_getters()
+        self._thread = threading.Thread(target=self._tick_loop, name="ursim-tick", daemon=True)
+
+    # ---- lifecycle ---------------------------------------------------------------------------
+    def start(self) -> None:
+        self._thread.start()
+
+    def shutdown(self) -> None:
+        self._stop.set()
+        with self.lock:
+            if self.program is not None:
+                self.program.kill("shutdown")
+        if self._thread.is_alive():
+            self._thread.join(timeout=2)
+
+    @property
+    def stopped(self) -> bool:
+        return self._stop.is_set()
+
+    def log(self, text: str) -> None:
+        line = f"{self.timestamp:10.3f} {text}"
+        self.log_lines.append(line)
+        if self._log_fh:
+            self._log_fh.write(line + "\n")
+            self._log_fh.flush()
+        if self.cfg.verbose:
+            print(line, file=sys.stderr, flush=True)
+
+    # ---- derived state -----------------------------------------------------------------------
+    @property
+    def runtime_state(self) -> int:
+        if self.program is not None and self.program.running:
+            return RUNTIME_PAUSED if self.paused else RUNTIME_PLAYING
+        return RUNTIME_STOPPED
+
+    @property
+    def safety_status_bits(self) -> int:
+        return _SAFETY_BITS.get(self.safety_mode, 1 << 10)
+
+    @property
+    def robot_status_bits(self) -> int:
+        power = self.robot_mode in (4, 5, 6, 7)
+        return int(power) | (int(self.runtime_state == RUNTIME_PLAYING) << 1)
+
+    @property
+    def tcp_pose(self) -> np.ndarray:
+        return self._tcp_pose
+
+    def can_move(self) -> bool:
+        return self.robot_mode == ROBOT_RUNNING and self.safety_mode == SAFETY_NORMAL
+
+    def _update_pose(self) -> None:
+        q = self.arm.q
+        if self._q_for_pose is not None and np.array_equal(q, self._q_for_pose):
+            self._tcp_speed = np.zeros(6)
+            return
+        self._flange = K.fk(self.model, q)
+        new = matrix_to_pose(self._flange @ self.tcp)
+        if self._q_for_pose is not None:
+            lin = (new[:3] - self._tcp_pose[:3]) / self.period
+            self._tcp_speed = np.r_[lin, np.zeros(3)]
+        self._tcp_pose = new
+        self._q_for_pose = q.copy()
+
+    def set_tcp(self, pose) -> None:
+        with self.lock:
+            self.tcp = pose_to_matrix(pose)
+            self._q_for_pose = None
+            self._update_pose()
+
+    def tcp_offset_pose(self) -> np.ndarray:
+        return matrix_to_pose(self.tcp)
+
+    # ---- registers ---------------------------------------------------------------------------
+    def read_input(self, name: str):
+        return self.inputs[name]
+
+    def apply_inputs(self, values: dict) -> None:
+        """Set input variables from one RTDE data package (atomically) and act on the IO ones."""
+        with self.lock:
+            self.inputs.update(values)
+            if "standard_digital_output_mask" in values:
+                m = int(values["standard_digital_output_mask"])
+                self.digital_out = (self.digital_out & ~m) | (int(values.get("standard_digital_output", 0)) & m)
+            if "configurable_digital_output_mask" in values:
+                m = int(values["configurable_digital_output_mask"]) << 8
+                v = int(values.get("configurable_digital_output", 0)) << 8
+                self.digital_out = (self.digital_out & ~m) | (v & m)
+            if "tool_digital_output_mask" in values:
+                m = int(values["tool_digital_output_mask"]) << 16
+                v = int(values.get("tool_digital_output", 0)) << 16
+                self.digital_out = (self.digital_out & ~m) | (v & m)
+            if values.get("speed_slider_mask"):
+                self.speed_fraction = float(np.clip(values.get("speed_slider_fraction", 1.0), 0.0, 1.0))
+            if "standard_analog_output_mask" in values:
+                m = int(values["standard_analog_output_mask"])
+                for i in range(2):
+                    if m & (1 << i):
+                        self.analog_out[i] = float(values.get(f"standard_analog_output_{i}", 0.0))
+
+    def output_value(self, name: str):
+        """Current value of an RTDE output variable (registers, state, arm)."""
+        if name.startswith("output_int_register_"):
+            return self.out_int[int(name[20:])]
+        if name.startswith("output_double_register_"):
+            return self.out_double[int(name[23:])]
+        if name.startswith("input_"):
+            return self.inputs.get(name, 0)
+        if name.startswith("output_bit_register"):
+            return 0
+        return self._snapshot_value(name)
+
+    def _snapshot_value(self, name):
+        getter = self._getters.get(name)
+        return getter() if getter is not None else 0
+
+    def _make_getters(self) -> dict:
+        arm = self.arm
+        return {
+            "timestamp": lambda: self.timestamp,
+            "target_q": lambda: arm.target_q, "target_qd": lambda: arm.qd, "actual_q": lambda: arm.q,
+            "actual_qd": lambda: arm.qd, "actual_TCP_pose": lambda: self._tcp_pose,
+            "target_TCP_pose": lambda: self._tcp_pose, "actual_TCP_speed": lambda: self._tcp_speed,
+            "target_TCP_speed": lambda: self._tcp_speed, "robot_mode": lambda: self.robot_mode,
+            "safety_mode": lambda: self.safety_mode, "safety_status": lambda: self.safety_mode,
+            "runtime_state": lambda: self.runtime_state, "robot_status_bits": lambda: self.robot_status_bits,
+            "safety_status_bits": lambda: self.safety_status_bits,
+            "actual_digital_output_bits": lambda: self.digital_out,
+            "speed_scaling": lambda: self.speed_fraction if self.runtime_state == RUNTIME_PLAYING else 1.0,
+            "target_speed_fraction": lambda: self.speed_fraction,
+            "standard_analog_output0": lambda: self.analog_out[0],
+            "standard_analog_output1": lambda: self.analog_out[1],
+            "joint_mode": lambda: _JOINT_MODE_RUNNING if self.robot_mode == ROBOT_RUNNING else _JOINT_MODE_IDLE,
+            "joint_temperatures": lambda: _TEMPS, "actual_main_voltage": lambda: 48.0,
+            "actual_robot_voltage": lambda: 48.0 if self.robot_mode >= 4 else 0.0,
+            "actual_joint_voltage": lambda: _VOLTS, "actual_execution_time": lambda: 0.05,
+            "actual_tool_accelerometer": lambda: _ACC, "payload": lambda: self.payload,
+            "payload_cog": lambda: self.payload_cog, "tcp_offset": lambda: self.tcp_offset_pose(),
+            "elbow_position": lambda: K.fk_frames(self.model, arm.q)[3, :3, 3],
+        }
+
+    # ---- program management ------------------------------------------------------------------
+    def start_program(self, program) -> bool:
+        """Replace the running program with `program` (as a controller does on a new script)."""
+        with self.lock:
+            if self.program is not None and self.program.running:
+                self.program.kill("replaced by a new program")
+            if not self.can_move():
+                self.log(f"program {program.name} not started: robot mode {ROBOT_MODES.get(self.robot_mode)}, "
+                         f"safety {SAFETY_MODES.get(self.safety_mode)}")
+                self.program = None
+                return False
+            self.paused = False
+            self.program = program
+            program.start()
+            return True
+
+    def stop_program(self, reason: str) -> None:
+        with self.lock:
+            if self.program is not None and self.program.running:
+                self.program.kill(reason)
+            self.arm.halt()
+            self.paused = False
+
+    def runtime_error(self, text: str) -> None:
+        """A runtime error: the program stops (the controller's popup/log line)."""
+        with self.lock:
+            self.last_error = text
+            self.log(f"runtime error: {text}")
+            if self.program is not None and self.program.running:
+                self.program.kill(f"runtime error: {text}")
+            self.arm.halt()
+
+    # ---- safety ------------------------------------------------------------------------------
+    def protective_stop(self, reason: str) -> None:
+        with self.lock:
+            if self.safety_mode == SAFETY_PROTECTIVE_STOP:
+                return
+            self.safety_mode = SAFETY_PROTECTIVE_STOP
+            self.safety_event_time = time.monotonic()
+            self.last_error = f"protective stop: {reason}"
+            self.log(f"PROTECTIVE STOP: {reason}")
+            self.arm.halt()
+            if self.program is not None and self.program.running:
+                self.program.kill("protective stop")
+
+    def emergency_stop(self, reason: str = "emergency stop button") -> None:
+        with self.lock:
+            self.safety_mode = SAFETY_ROBOT_ESTOP
+            self.safety_event_time = time.monotonic()
+            self.last_error = f"emergency stop: {reason}"
+            self.log(f"EMERGENCY STOP: {reason}")
+            self.arm.halt()
+            if self.program is not None and self.program.running:
+                self.program.kill("emergency stop")
+
+    def release_emergency_stop(self) -> None:
+        with self.lock:
+            if self.safety_mode == SAFETY_ROBOT_ESTOP:
+                self.safety_mode = SAFETY_NORMAL
+                self.robot_mode = ROBOT_POWER_OFF
+                self.log("emergency stop released; robot powered off")
+
+    def unlock_protective_stop(self) -> str:
+        with self.lock:
+            if self.safety_mode != SAFETY_PROTECTIVE_STOP:
+                return "Protective stop releasing"
+            if time.monotonic() - self.safety_event_time < self.cfg.unlock_delay_s:
+                return ("Cannot unlock protective stop until 5s after occurrence. "
+                        "Always inspect cause of protective stop before unlocking")
+            self.safety_mode = SAFETY_NORMAL
+            self.log("protective stop unlocked")
+            return "Protective stop releasing"
+
+    def _safety_checks(self) -> None:
+        arm = self.arm
+        if arm.mode == "idle" and not np.any(arm.qd):
+            return
+        over = np.abs(arm.qd) > np.asarray(self.model.joint_speed_max) * 1.02 + 1e-9
+        if np.any(over):
+            j = int(np.argmax(over))
+            self.protective_stop(f"joint {j} speed limit ({abs(arm.qd[j]):.3f} rad/s)")
+            return
+        lo, hi = np.asarray(self.model.q_min), np.asarray(self.model.q_max)
+        if np.any(arm.q < lo - 1e-9) or np.any(arm.q > hi + 1e-9):
+            self.protective_stop("joint position limit")
+            return
+        if self.cfg.collision is not None:
+            hit = self.cfg.collision(arm.q)
+            if hit:
+                self.protective_stop(f"collision: {hit}")
+
+    # ---- the tick ----------------------------------------------------------------------------
+    def wait_tick(self, last: int, timeout: float = 0.5) -> int:
+        """Block until the tick after `last` (URScript `sync()`); returns the new tick index."""
+        with self.tick_cond:
+            if self.tick_index == last:
+                self.tick_cond.wait(timeout)
+            return self.tick_index
+
+    def _tick_loop(self) -> None:
+        period = self.period
+        t0 = time.monotonic()
+        k = 0
+        while not self._stop.is_set():
+            k += 1
+            delay = t0 + k * period - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            steps = 1
+            if delay < -period:  # fell behind: skip the missed ticks (a controller sends the newest)
+                missed = int(-delay / period)
+                k += missed
+                steps += min(missed, 50)
+            with self.lock:
+                for _ in range(steps):
+                    self.arm.step(period, self.speed_fraction if not self.paused else 0.0, self.timestamp)
+                self.tick_index = k
+                self.timestamp = k * period
+                self._update_pose()
+                self._safety_checks()
+                self._run_pending_faults()
+            with self.tick_cond:
+                self.tick_cond.notify_all()
+            self._stream(k)
+
+    def _stream(self, k: int) -> None:
+        if time.monotonic() < self.stall_until:
+            return
+        for conn in list(self.rtde_conns):
+            conn.maybe_send(k, self)
+
+    # ---- scheduled faults --------------------------------------------------------------------
+    def schedule_fault(self, fault: dict) -> None:
+        with self.lock:
+            self.pending_faults.append(fault)
+
+    def _run_pending_faults(self) -> None:
+        if not self.pending_faults:
+            return
+        progress = self.out_int[2] & 0x7FFF if self.out_int[2] & 0x8000 else None
+        keep = []
+        for f in self.pending_faults:
+            due = (f.get("at_time") is not None and time.monotonic() >= f["at_time"]) or \
+                  (f.get("at_progress") is not None and progress is not None and progress >= f["at_progress"])
+            if due:
+                from sim.ursim.admin import apply_fault
+
+                apply_fault(self, f["kind"], f.get("arg"))
+            else:
+                keep.append(f)
+        self.pending_faults = keep
+
+    # ---- a JSON-able view for the admin channel and tests ------------------------------------
+    def state(self) -> dict:
+        with self.lock:
+            return {
+                "timestamp": self.timestamp, "q": self.arm.q.tolist(), "tcp_pose": self._tcp_pose.tolist(),
+                "tcp_offset": self.tcp_offset_pose().tolist(),
+                "robot_mode": ROBOT_MODES.get(self.robot_mode), "safety_mode": SAFETY_MODES.get(self.safety_mode),
+                "runtime_state": self.runtime_state, "program": getattr(self.program, "name", None),
+                "arm_mode": self.arm.mode, "digital_out": self.digital_out, "out_int": self.out_int[:8],
+                "speed_fraction": self.speed_fraction, "last_error": self.last_error,
+                "rtde_clients": len(self.rtde_conns), "log_tail": list(self.log_lines)[-20:],
+            }
+
+    def state_json(self) -> str:
+        return json.dumps(self.state())
+
+
+_JOINT_MODE_RUNNING = np.full(6, 253, dtype=np.int64)  # JOINT_RUNNING_MODE
+_JOINT_MODE_IDLE = np.full(6, 250, dtype=np.int64)  # JOINT_IDLE_MODE (brakes on)
+_TEMPS = np.full(6, 32.0)
+_VOLTS = np.full(6, 47.5)
+_ACC = np.array([0.0, 0.0, 9.81])

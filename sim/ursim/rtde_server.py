@@ -1,0 +1,240 @@
+"""RTDE v2 server (port 30004) of the controller stand-in.
+
+Per connection: V/v/O/I/S/P/U/M as the controller answers them (reference ur-rtde.md §1, §9.2):
+output recipes with each variable at its official type, `NOT_FOUND` for unknown names, input
+recipes numbered 1, 2, 3, ... per connection (ur_rtde hard-codes those ids), `IN_USE` when another
+live connection owns an input, inputs applied atomically per data package, and data packages
+streamed from the controller tick at the requested rate. Streaming writes never block the tick:
+they go out with MSG_DONTWAIT, and a client whose backlog passes `MAX_BACKLOG` bytes is dropped,
+as the controller closes clients that stop reading.
+"""
+from __future__ import annotations
+
+import itertools
+import socket
+import struct
+import threading
+import time
+
+import numpy as np
+
+from sim.ursim.rtde_vars import INPUTS, OUTPUTS, TYPE_WIDTH, FrameReader, frame, record_format
+
+MAX_BACKLOG = 1 << 20
+_ids = itertools.count(1)
+
+
+def _flatten(values, widths) -> list:
+    flat = []
+    for v, w in zip(values, widths):
+        if w == 1:
+            flat.append(v.item() if isinstance(v, np.generic) else v)
+        elif np.ndim(v) == 0:  # a variable the stand-in does not model: zeros of the right width
+            flat.extend([v] * w)
+        else:
+            flat.extend(np.asarray(v).tolist())
+    return flat
+
+
+class RTDEConnection:
+    """One client connection: its recipes, its reader thread and its share of the stream."""
+
+    def __init__(self, sock: socket.socket, ctrl):
+        self.id = next(_ids)
+        self.sock = sock
+        self.ctrl = ctrl
+        self.protocol = 1
+        self.out_names: list[str] = []
+        self.out_struct: struct.Struct | None = None
+        self.out_widths: list[int] = []
+        self.out_recipe_id = 0
+        self.every = 1
+        self.next_tick = 0
+        self.started = False
+        self.inputs: dict[int, tuple[list[str], struct.Struct, list[int]]] = {}
+        self.next_input_id = 1
+        self.backlog = bytearray()
+        self.send_lock = threading.Lock()
+        self.closed = False
+        self.sent = 0
+
+    # ---- sending -------------------------------------------------------------------------------
+    def _send(self, data: bytes) -> None:
+        with self.send_lock:
+            if self.closed:
+                return
+            self.backlog += data
+            self._flush()
+
+    def _flush(self) -> None:
+        while self.backlog:
+            try:
+                n = self.sock.send(self.backlog, socket.MSG_DONTWAIT)
+            except (BlockingIOError, InterruptedError):
+                break
+            except OSError:
+                self.close()
+                return
+            del self.backlog[:n]
+        if len(self.backlog) > MAX_BACKLOG:
+            self.ctrl.log(f"rtde client {self.id}: not reading, receive buffer overflow: closing")
+            self.close()
+
+    def maybe_send(self, k: int, ctrl) -> None:
+        """Called every tick: send a data package if this client is due one."""
+        if not self.started or self.closed:
+            if self.backlog:
+                with self.send_lock:
+                    self._flush()
+            return
+        if k < self.next_tick:
+            return
+        self.next_tick = k + self.every * ctrl.stream_decimate
+        with ctrl.lock:
+            values = [ctrl.output_value(n) for n in self.out_names]
+        payload = struct.pack(">B", self.out_recipe_id) + self.out_struct.pack(*_flatten(values, self.out_widths))
+        self._send(frame(b"U", payload))
+        self.sent += 1
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        try:
+            self.sock.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
+        try:
+            self.sock.close()
+        except OSError:
+            pass
+
+    # ---- receiving -----------------------------------------------------------------------------
+    def serve(self) -> None:
+        reader = FrameReader()
+        try:
+            while not self.closed:
+                try:
+                    data = self.sock.recv(65536)
+                except OSError:
+                    break
+                if not data:
+                    break
+                for kind, payload in reader.feed(data):
+                    self._handle(kind, payload)
+        except Exception as exc:  # a malformed stream ends this connection only
+            self.ctrl.log(f"rtde client {self.id}: {type(exc).__name__}: {exc}")
+        finally:
+            self.close()
+            with self.ctrl.lock:
+                if self in self.ctrl.rtde_conns:
+                    self.ctrl.rtde_conns.remove(self)
+                for name in [n for n, owner in self.ctrl.owners.items() if owner == self.id]:
+                    del self.ctrl.owners[name]
+
+    def _reply(self, kind: bytes, payload: bytes) -> None:
+        if self.ctrl.reply_delay:
+            time.sleep(self.ctrl.reply_delay)
+        self._send(frame(kind, payload))
+
+    def _handle(self, kind: int, payload: bytes) -> None:
+        ctrl = self.ctrl
+        k = chr(kind)
+        if k == "V":
+            (self.protocol,) = struct.unpack(">H", payload[:2])
+            self._reply(b"V", b"\x01" if self.protocol in (1, 2) else b"\x00")
+        elif k == "v":
+            self._reply(b"v", struct.pack(">IIII", *ctrl.cfg.version))
+        elif k == "O":
+            self._setup_outputs(payload)
+        elif k == "I":
+            self._setup_inputs(payload)
+        elif k == "S":
+            ok = self.out_struct is not None
+            if ok:
+                self.started = True
+                self.next_tick = ctrl.tick_index + 1
+            self._reply(b"S", b"\x01" if ok else b"\x00")
+        elif k == "P":
+            self.started = False
+            self._reply(b"P", b"\x01")
+        elif k == "U":
+            self._data(payload)
+        elif k == "M":
+            pass
+        else:
+            ctrl.log(f"rtde client {self.id}: unknown package type {kind}")
+
+    def _setup_outputs(self, payload: bytes) -> None:
+        ctrl = self.ctrl
+        if self.protocol >= 2:
+            (freq,) = struct.unpack(">d", payload[:8])
+            text = payload[8:].decode("ascii", "replace")
+        else:
+            freq, text = 125.0, payload.decode("ascii", "replace")
+        names = [n.strip() for n in text.split(",") if n.strip()]
+        types = [OUTPUTS.get(n, "NOT_FOUND") for n in names]
+        base = 1.0 / ctrl.period
+        if "NOT_FOUND" in types or not names or not (0 < freq <= base + 1e-9):
+            self._reply(b"O", b"\x00" + ",".join(types).encode())
+            return
+        self.out_names = names
+        self.out_widths = [TYPE_WIDTH.get(t, 1) for t in types]
+        self.out_struct = record_format(types)
+        self.every = max(1, int(round(base / freq)))
+        self.out_recipe_id += 1
+        self._reply(b"O", struct.pack(">B", self.out_recipe_id) + ",".join(types).encode())
+
+    def _setup_inputs(self, payload: bytes) -> None:
+        ctrl = self.ctrl
+        names = [n.strip() for n in payload.decode("ascii", "replace").split(",") if n.strip()]
+        with ctrl.lock:
+            types = []
+            for n in names:
+                if n not in INPUTS:
+                    types.append("NOT_FOUND")
+                elif ctrl.owners.get(n, self.id) != self.id and ctrl.owners[n] in {c.id for c in ctrl.rtde_conns}:
+                    types.append("IN_USE")
+                else:
+                    types.append(INPUTS[n])
+            if "NOT_FOUND" in types or "IN_USE" in types or not names:
+                rid = 0
+            else:
+                rid = self.next_input_id
+                self.next_input_id += 1
+                for n in names:
+                    ctrl.owners[n] = self.id
+                self.inputs[rid] = (names, record_format(types), [TYPE_WIDTH.get(t, 1) for t in types])
+        self._reply(b"I", struct.pack(">B", rid) + ",".join(types).encode())
+
+    def _data(self, payload: bytes) -> None:
+        rid = payload[0]
+        recipe = self.inputs.get(rid)
+        if recipe is None:
+            self.ctrl.log(f"rtde client {self.id}: data package for unknown input recipe {rid}: ignored")
+            return
+        names, st, widths = recipe
+        if len(payload) - 1 != st.size:
+            self.ctrl.log(f"rtde client {self.id}: input recipe {rid} expects {st.size} bytes, "
+                          f"got {len(payload) - 1}: ignored")
+            return
+        flat = st.unpack(payload[1:])
+        values, i = {}, 0
+        for n, w in zip(names, widths):
+            values[n] = flat[i] if w == 1 else np.array(flat[i:i + w])
+            i += w
+        self.ctrl.apply_inputs(values)
+
+
+def serve_rtde(ctrl, listener: socket.socket) -> None:
+    """Accept RTDE clients forever (one reader thread each)."""
+    while not ctrl.stopped:
+        try:
+            sock, _ = listener.accept()
+        except OSError:
+            return
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        conn = RTDEConnection(sock, ctrl)
+        with ctrl.lock:
+            ctrl.rtde_conns.append(conn)
+        threading.Thread(target=conn.serve, name=f"rtde-{conn.id}", daemon=True).start()

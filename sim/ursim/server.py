@@ -1,0 +1,62 @@
+"""Start the controller stand-in: bind every port on one loopback address, start the threads."""
+from __future__ import annotations
+
+import socket
+import threading
+from pathlib import Path
+
+from sim.ursim.admin import serve_admin
+from sim.ursim.controller import Controller, ControllerConfig
+from sim.ursim.dashboard import serve_dashboard
+from sim.ursim.rtde_server import serve_rtde
+from sim.ursim.script_ports import serve_script_port
+
+
+def _listen(host: str, port: int) -> socket.socket:
+    s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        s.bind((host, port))
+    except OSError as exc:
+        s.close()
+        raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
+    s.listen(16)
+    return s
+
+
+class StandIn:
+    """A running stand-in: `Controller` plus its listeners. `close()` stops everything."""
+
+    def __init__(self, config: ControllerConfig, programs_dir: Path | None = None):
+        self.ctrl = Controller(config)
+        self.done = threading.Event()
+        ports = config.ports
+        self._sockets = []
+        try:
+            for key in ("rtde", "dashboard", "primary", "secondary", "realtime", "admin"):
+                self._sockets.append((key, _listen(config.host, ports[key])))
+        except OSError:
+            self.close()
+            raise
+        self.ctrl.start()
+        for key, sock in self._sockets:
+            if key == "rtde":
+                target, args = serve_rtde, (self.ctrl, sock)
+            elif key == "dashboard":
+                target, args = serve_dashboard, (self.ctrl, sock, programs_dir)
+            elif key == "admin":
+                target, args = serve_admin, (self.ctrl, sock, self.done.set)
+            else:
+                target, args = serve_script_port, (self.ctrl, sock, ports[key])
+            threading.Thread(target=target, args=args, name=f"listen-{key}", daemon=True).start()
+
+    def close(self) -> None:
+        for _, s in self._sockets:
+            for op in (lambda: s.shutdown(socket.SHUT_RDWR), s.close):  # shutdown wakes accept()
+                try:
+                    op()
+                except OSError:
+                    pass
+        for conn in list(self.ctrl.rtde_conns):
+            conn.close()
+        self.ctrl.shutdown()

@@ -1,0 +1,239 @@
+"""The URScript subset the stand-in runs: fabkit's own programs and ur_rtde's injected paths.
+
+Statements (one per line): `def NAME():` / `end`, comments, `set_tcp(p[...])`,
+`movej(q|p[...], a=, v=, r=)`, `movel(p[...]|q, a=, v=, r=)`, `movep(...)`,
+`set_tool_digital_out(n, b)`, `set_standard_digital_out(n, b)`, `set_configurable_digital_out(n, b)`,
+`write_output_integer_register(n, v)`, `sleep(t)`, `textmsg(...)`, `sync()`,
+`signal_async_progress(i)` (ur_rtde paths). Anything else is rejected with the line number, and the
+program does not run (as a controller refuses a program that does not compile).
+
+Consecutive moves run as one blended motion; a non-move statement between moves brings the arm to
+rest first (the stand-in has no lookahead across other statements).
+"""
+from __future__ import annotations
+
+import ast
+import re
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.ursim.motion import PlanError, Waypoint, plan_moves
+
+MOVES = ("movej", "movel", "movep")
+_CALL = re.compile(r"^([A-Za-z_]\w*)\s*\((.*)\)\s*$")
+_DEFAULTS = {"movej": (1.4, 1.05), "movel": (1.2, 0.25), "movep": (1.2, 0.25)}  # (a, v)
+
+
+class ScriptError(Exception):
+    """A statement the stand-in cannot compile (message names the line)."""
+
+
+@dataclass(frozen=True)
+class Statement:
+    line: int
+    name: str
+    args: tuple
+    kwargs: dict
+    is_pose: bool = False  # first argument was written p[...]
+
+
+def _parse_call(text: str, line: int) -> Statement:
+    m = _CALL.match(text)
+    if not m:
+        raise ScriptError(f"line {line}: unsupported statement: {text.strip()[:80]}")
+    name, inner = m.group(1), m.group(2)
+    is_pose = inner.lstrip().startswith("p[")
+    src = re.sub(r"(?<![\w\]])p\[", "[", inner)
+    try:
+        call = ast.parse(f"f({src})", mode="eval").body
+        args = tuple(ast.literal_eval(a) for a in call.args)
+        kwargs = {k.arg: ast.literal_eval(k.value) for k in call.keywords}
+    except (SyntaxError, ValueError) as exc:
+        raise ScriptError(f"line {line}: cannot evaluate the arguments of {name}(): {exc}") from None
+    return Statement(line, name, args, kwargs, is_pose)
+
+
+_ARITY = {"set_tcp": 1, "set_tool_digital_out": 2, "set_standard_digital_out": 2,
+          "set_configurable_digital_out": 2, "write_output_integer_register": 2, "sleep": 1,
+          "signal_async_progress": 1, "sync": 0}
+
+
+def parse_statements(lines: list[tuple[int, str]]) -> list[Statement]:
+    """Parse body lines (line number, text) into statements; raises ScriptError."""
+    out = []
+    for no, raw in lines:
+        text = raw.split("#", 1)[0].strip() if not raw.strip().startswith("textmsg") else raw.strip()
+        if not text:
+            continue
+        st = _parse_call(text, no)
+        if st.name in MOVES:
+            if len(st.args) != 1 or len(st.args[0]) != 6 or set(st.kwargs) - {"a", "v", "r", "t"}:
+                raise ScriptError(f"line {no}: {st.name} needs one 6-vector target and a=, v=, r= keywords")
+            if st.kwargs.get("t", 0):
+                raise ScriptError(f"line {no}: {st.name} with t= is not supported by the stand-in")
+        elif st.name == "textmsg":
+            pass
+        elif st.name in _ARITY:
+            if len(st.args) != _ARITY[st.name]:
+                raise ScriptError(f"line {no}: {st.name} takes {_ARITY[st.name]} arguments")
+        else:
+            raise ScriptError(f"line {no}: unknown or unsupported function {st.name}()")
+        out.append(st)
+    return out
+
+
+def parse_program(text: str) -> tuple[str, list[Statement]]:
+    """A whole `def NAME(): ... end` program -> (name, statements); raises ScriptError."""
+    lines = text.replace("\r\n", "\n").split("\n")
+    numbered = [(i + 1, ln) for i, ln in enumerate(lines) if ln.strip() and not ln.strip().startswith("#")]
+    if not numbered:
+        raise ScriptError("empty program")
+    first_no, first = numbered[0]
+    m = re.match(r"^(def|sec)\s+(\w+)\s*\(\s*\)\s*:\s*$", first.strip())
+    if not m:
+        # a bare statement sent to the primary/secondary port runs as a one-line program
+        return "<statement>", parse_statements(numbered)
+    if numbered[-1][1].strip() != "end":
+        raise ScriptError(f"line {numbered[-1][0]}: program {m.group(2)} has no closing 'end'")
+    body = numbered[1:-1]
+    for no, ln in body:
+        if ln.strip() == "end" or re.match(r"^\s*(def|sec|thread|while|if|for)\b", ln):
+            raise ScriptError(f"line {no}: nested blocks are not supported by the stand-in: {ln.strip()[:60]}")
+    return m.group(2), parse_statements(body)
+
+
+def waypoint_of(st: Statement, progress: int = -1) -> Waypoint:
+    a_def, v_def = _DEFAULTS[st.name]
+    target = tuple(float(x) for x in st.args[0])
+    kw = st.kwargs
+    a, v, r = float(kw.get("a", a_def)), float(kw.get("v", v_def)), float(kw.get("r", 0.0))
+    if st.name == "movej":
+        return Waypoint("movej", v, a, r, pose=target if st.is_pose else None,
+                        q=None if st.is_pose else target, progress=progress)
+    if st.is_pose:
+        return Waypoint(st.name, v, a, r, pose=target, progress=progress)
+    return Waypoint(st.name, v, a, r, q=target, progress=progress)
+
+
+def path_waypoints(statements: list[Statement]) -> list[Waypoint]:
+    """ur_rtde's injected path (`signal_async_progress(i)` before each move) as waypoints."""
+    out, progress = [], -1
+    for st in statements:
+        if st.name == "signal_async_progress":
+            progress = int(st.args[0])
+        elif st.name in MOVES:
+            out.append(waypoint_of(st, progress))
+            progress = -1
+        elif st.name != "textmsg":
+            raise ScriptError(f"line {st.line}: unexpected {st.name}() in an injected path")
+    return out
+
+
+def resolve_fk_targets(ctrl, waypoints: list[Waypoint]) -> list[Waypoint]:
+    """movel/movep given joint targets move linearly to their forward kinematics (URScript)."""
+    from robot import kinematics as K
+    from sim.ursim.motion import matrix_to_pose
+
+    out = []
+    for w in waypoints:
+        if w.kind != "movej" and w.q is not None:
+            pose = matrix_to_pose(K.fk_tcp(ctrl.model, np.asarray(w.q), ctrl.tcp))
+            w = Waypoint(w.kind, w.v, w.a, w.r, pose=tuple(pose), progress=w.progress)
+        out.append(w)
+    return out
+
+
+class Killed(Exception):
+    """The program was stopped while a statement was running."""
+
+
+class URScriptProgram:
+    """Runs parsed statements in a thread against the controller (one program at a time)."""
+
+    def __init__(self, ctrl, name: str, statements: list[Statement]):
+        self.ctrl = ctrl
+        self.name = name
+        self.statements = statements
+        self.running = False
+        self._killed = threading.Event()
+        self._thread = threading.Thread(target=self._main, name=f"urscript-{name}", daemon=True)
+
+    def start(self) -> None:
+        self.running = True
+        self._thread.start()
+
+    def kill(self, reason: str) -> None:
+        if self.running:
+            self.running = False
+            self._killed.set()
+            self.ctrl.log(f"program {self.name} stopped: {reason}")
+
+    def _main(self) -> None:
+        ctrl = self.ctrl
+        ctrl.log(f"program {self.name} started")
+        try:
+            i, sts = 0, self.statements
+            while i < len(sts):
+                if sts[i].name in MOVES:
+                    j = i
+                    while j < len(sts) and sts[j].name in MOVES:
+                        j += 1
+                    self._move([waypoint_of(s) for s in sts[i:j]])
+                    i = j
+                else:
+                    self._do(sts[i])
+                    i += 1
+            ctrl.log(f"program {self.name} finished")
+        except Killed:
+            pass
+        except PlanError as exc:
+            ctrl.runtime_error(str(exc))
+        finally:
+            self.running = False
+
+    def _check(self) -> None:
+        if self._killed.is_set():
+            raise Killed()
+
+    def _move(self, waypoints: list[Waypoint]) -> None:
+        ctrl = self.ctrl
+        done = threading.Event()
+        with ctrl.lock:
+            self._check()
+            traj = plan_moves(ctrl.model, ctrl.tcp, ctrl.arm.q.copy(), resolve_fk_targets(ctrl, waypoints),
+                              ctrl.period)
+            ctrl.arm.run(traj, on_done=lambda ok: done.set())
+        while not done.wait(0.05):
+            self._check()
+        self._check()
+
+    def _do(self, st: Statement) -> None:
+        ctrl = self.ctrl
+        self._check()
+        name, args = st.name, st.args
+        if name == "textmsg":
+            ctrl.log("textmsg: " + " ".join(str(a) for a in args))
+        elif name == "set_tcp":
+            ctrl.set_tcp(args[0])
+        elif name in ("set_standard_digital_out", "set_configurable_digital_out", "set_tool_digital_out"):
+            n, val = int(args[0]), bool(args[1])
+            limit, shift = {"set_standard_digital_out": (8, 0), "set_configurable_digital_out": (8, 8),
+                            "set_tool_digital_out": (2, 16)}[name]
+            if not 0 <= n < limit:
+                raise PlanError(f"line {st.line}: {name}: output {n} does not exist")
+            with ctrl.lock:
+                bit = 1 << (n + shift)
+                ctrl.digital_out = (ctrl.digital_out | bit) if val else (ctrl.digital_out & ~bit)
+        elif name == "write_output_integer_register":
+            n = int(args[0])
+            if not 0 <= n < 48:
+                raise PlanError(f"line {st.line}: write_output_integer_register: register {n} does not exist")
+            with ctrl.lock:
+                ctrl.out_int[n] = int(args[1])
+        elif name == "sleep":
+            if self._killed.wait(max(0.0, float(args[0]))):
+                raise Killed()
+        elif name in ("sync", "signal_async_progress"):
+            ctrl.wait_tick(ctrl.tick_index)
