@@ -1,0 +1,92 @@
+"""The `fabkit` command line basics and `fabkit info` on good files."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fabkit.cli import main
+from fabkit.fold import FoldFrame, FoldModel
+from fabkit.io import save_fold, save_obj
+from fabkit.mesh import PolyMesh
+from io_meshes import folded_coords, mixed_mesh
+
+ROOT = Path(__file__).parent.parent
+DATA = Path(__file__).parent / "data"
+
+
+def cube_mesh() -> PolyMesh:
+    V = [[i & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)]
+    F = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+    return PolyMesh(V, F, face_data={"side": np.arange(6)})
+
+
+def test_help_and_version_in_a_subprocess():
+    r = subprocess.run([sys.executable, "-m", "fabkit", "--help"], capture_output=True, text=True, timeout=60, cwd=ROOT)
+    assert r.returncode == 0 and "info" in r.stdout
+    r = subprocess.run([sys.executable, "-m", "fabkit", "info", "--help"], capture_output=True, text=True,
+                       timeout=60, cwd=ROOT)
+    assert r.returncode == 0 and "--report" in r.stdout and "fabkit info" in r.stdout
+    r = subprocess.run([sys.executable, "-m", "fabkit", "--version"], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0 and r.stdout.startswith("fabkit ")
+
+
+def test_usage_errors_exit_2_with_one_line(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["info"])
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "required" in err[0]
+    with pytest.raises(SystemExit) as e:
+        main(["no-such-command"])
+    assert e.value.code == 2
+
+
+def test_info_on_a_cube_obj(tmp_path, capsys):
+    save_obj(cube_mesh(), tmp_path / "cube.obj")
+    assert main(["info", str(tmp_path / "cube.obj"), "--report", str(tmp_path / "r.json")]) == 0
+    out = capsys.readouterr().out
+    assert "8 vertices, 6 faces (6 quads), 12 edges, 0 boundary loop(s)" in out
+    assert "max 1.57 rad" in out
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r["format"] == "fabkit.info/1" and r["kind"] == "obj"
+    assert r["faces_by_size"] == {"quads": 6}
+    assert r["max_abs_angle_defect_rad"] == pytest.approx(np.pi / 2, abs=1e-13)
+    assert r["mean_abs_angle_defect_rad"] == pytest.approx(np.pi / 2, abs=1e-13)
+    assert r["face_tags"] == ["side"] and r["unit"] == "m"
+
+
+def test_info_on_a_fold_animation(tmp_path, capsys):
+    mesh = mixed_mesh()
+    frames = [FoldFrame(folded_coords(mesh, a)) for a in (0.2, 0.4)]
+    save_fold(FoldModel.from_mesh(mesh, frames=frames), tmp_path / "p.fold")
+    assert main(["info", str(tmp_path / "p.fold"), "--report", str(tmp_path / "r.json"), "--quiet"]) == 0
+    assert capsys.readouterr().out == ""  # --quiet
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r["kind"] == "fold" and r["frames"] == 2 and r["unit"] == "mm"
+    assert r["faces_by_size"] == {"triangles": 2, "quads": 2, "pentagons": 1}
+    assert r["face_tags"] == ["column", "middle", "strip"] and r["vertex_tags"] == ["pinned", "weight"]
+    assert r["edges_assignment"] == {"B": 9, "F": 3, "U": 2}
+    assert r["max_abs_angle_defect_rad"] < 1e-15 and r["max_planarity"] == 0.0
+    assert r["boundary_loops"] == 1 and r["interior_vertices"] == 1
+
+
+def test_info_on_the_pleat_fixture_reports_the_rotation(capsys):
+    assert main(["info", str(DATA / "fold" / "pleat-xz.fold")]) == 0
+    out = capsys.readouterr().out
+    assert "4 faces (4 quads)" in out and "rotated into z = 0" in out and "file unit 'unit'" in out
+
+
+def test_info_missing_file_and_report_directory(tmp_path, capsys):
+    assert main(["info", str(tmp_path / "nope.obj")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"fabkit info: error: {tmp_path / 'nope.obj'}: no such file"]
+    save_obj(cube_mesh(), tmp_path / "c.obj")
+    assert main(["info", str(tmp_path / "c.obj"), "--report", str(tmp_path / "no" / "r.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "output directory does not exist" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.obj"]
