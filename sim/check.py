@@ -301,7 +301,7 @@ def interpolate_program(model, prog: Program, settings: CheckSettings = CheckSet
         if bad is not None:
             arrived[i] = False
             interior[i] = q
-            events.append((i + 1, "unreachable", "workspace", math.nan,
+            events.append((int(i) + 1, "unreachable", "workspace", math.nan,
                            f"the linear move from waypoint {i} leaves the workspace at {100 * bad:.0f}% of the way "
                            f"(no inverse kinematics solution)"))
             continue
@@ -309,7 +309,7 @@ def interpolate_program(model, prog: Program, settings: CheckSettings = CheckSet
         diff = np.abs(q[-1] - prog.q[i + 1])
         if float(diff.max()) > settings.end_tol_rad:
             j = int(np.argmax(diff))
-            events.append((i + 1, "unreachable", "arrival", float(diff.max()),
+            events.append((int(i) + 1, "unreachable", "arrival", float(diff.max()),
                            f"the linear move from waypoint {i} arrives with other joints than stored "
                            f"({JOINT_NAMES[j]} off by {diff[j] * _DEG:.1f}°, {kin.branch_label(model, q[-1])} "
                            f"instead of {kin.branch_label(model, prog.q[i + 1])})"))
