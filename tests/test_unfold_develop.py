@@ -117,14 +117,21 @@ def test_refinement_lowers_the_error_of_a_perturbed_panel(rng):
     dev = develop(noisy)
     assert dev.converged and dev.iterations > 0 and dev.n_flipped == 0
     assert dev.mean_relative_deviation < 0.5 * start.mean_relative_deviation
-    # at a minimum of the spring energy the gradient J^T r vanishes (free coordinates)
-    from fabkit.unfold.isometric import SpringProblem
+    # at a minimum of the spring energy the gradient J^T r vanishes, and solving on with a much
+    # tighter tolerance gains nothing worth having
+    from fabkit.unfold.isometric import SpringProblem, gauss_newton
 
     pairs, rest = reference_lengths(noisy)
-    p = SpringProblem(pairs, rest, noisy.n_vertices, np.ones(2 * noisy.n_vertices, bool))
+    free = np.ones(2 * noisy.n_vertices, bool)
+    free[:3] = False
+    p = SpringProblem(pairs, rest, noisy.n_vertices, free)
     r = p.residuals(dev.uv)
-    g = p.jacobian(dev.uv).T @ r
-    assert np.max(np.abs(g)) < 1e-9 * max(1.0, np.linalg.norm(r))
+    J = p.jacobian(dev.uv)
+    g = J.T @ r
+    assert np.max(np.abs(g)) < 1e-6 * abs(J).max() * np.linalg.norm(r)
+    tighter, info = gauss_newton(p.residuals, p.jacobian, dev.uv, free, tol=1e-15)
+    e0, e1 = np.sum(r ** 2), np.sum(p.residuals(tighter) ** 2)
+    assert e1 <= e0 and (e0 - e1) < 1e-9 * e0
 
 
 def test_target_lengths_scale_the_development():

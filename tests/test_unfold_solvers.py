@@ -90,3 +90,13 @@ def test_unused_vertices_are_ignored():
 
     dev = develop(m2)
     assert dev.max_relative_deviation < 1e-12 and np.all(dev.uv[-1] == 0)
+
+
+def test_solver_says_when_it_did_not_converge():
+    from fabkit.unfold import develop
+
+    dev = develop(sphere_cap(), max_iterations=1)
+    assert not dev.converged and "stopped after 1 iterations" in dev.message
+    assert dev.summary()["converged"] is False
+    full = develop(sphere_cap())
+    assert full.converged and full.mean_relative_deviation <= dev.mean_relative_deviation

@@ -5,7 +5,7 @@ order plus the length deviation of every edge and face diagonal, area change, fl
 overlap. Methods (paper Fig. 10):
 
 - "isometric" (default): spring energy between 3D and 2D lengths over edges and face diagonals,
-  from the exact incremental layout, refined by sparse Levenberg-Marquardt (`isometric.py`);
+  from the exact incremental layout, refined by sparse Gauss-Newton (`isometric.py`);
 - "conformal": least-squares conformal maps, best-scaled (`conformal.py`);
 - "authalic": area-preserving with a weak conformal term (`authalic.py`).
 

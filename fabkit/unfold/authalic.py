@@ -3,7 +3,7 @@
 Area preservation alone leaves a huge family of maps (any area-preserving shear), so the energy is
 sum_T (A2D_T / A3D_T - 1)^2 + mu * sum_T |conformal distortion_T|^2 with a weak `mu`: areas are met
 as closely as possible, and among the maps that do, the least sheared one is chosen. Solved by the
-same sparse Levenberg-Marquardt as the isometric development, starting from the conformal (LSCM)
+same sparse Gauss-Newton as the isometric development, starting from the conformal (LSCM)
 development scaled to the panel's area.
 """
 from __future__ import annotations
@@ -13,7 +13,7 @@ from scipy.sparse import csr_matrix, vstack
 
 from fabkit.mesh import PolyMesh
 from fabkit.unfold.conformal import conformal_layout, lscm_matrix, _far_boundary_pair
-from fabkit.unfold.isometric import levenberg_marquardt
+from fabkit.unfold.isometric import gauss_newton
 
 __all__ = ["AreaProblem", "authalic_layout"]
 
@@ -59,4 +59,4 @@ def authalic_layout(mesh: PolyMesh, tris: np.ndarray, *, max_iterations: int = 1
     p, q = _far_boundary_pair(mesh)
     free = np.repeat(mesh.topology.used_vertex_mask, 2)
     free[[2 * p, 2 * p + 1, 2 * q + 1]] = False
-    return levenberg_marquardt(problem.residuals, problem.jacobian, uv0, free, max_iterations=max_iterations)
+    return gauss_newton(problem.residuals, problem.jacobian, uv0, free, max_iterations=max_iterations)
