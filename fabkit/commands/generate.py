@@ -17,8 +17,10 @@ Presets (parameters in brackets, defaults after '='; lengths in metres, angles i
            [radius=0.5 arc=60 width=0.6 creases=1 offset fold=60 skew=0 offset2 fold2 skew2
             columns=24 rows=4]; offset defaults to width/2 (one crease) or width/4 (two creases),
            offset2 to 3*width/5, fold2 to -fold, skew2 to skew
-  trifold  the tri-fold panel of the paper's Fig. 3 (chamfer, bevel, delete, extrude,
-           Catmull-Clark, retopologise) [size=0.6 length=0.9 resolution=4 height=0.12]
+  trifold  the tri-fold panel of the paper's Fig. 3 (bevel a box, delete its faces, extrude the
+           hole borders, Catmull-Clark with sharp creases, keep one edge band, retopologise)
+           [length=1.6 depth=0.8 height=depth bevel=0.2 extrude=0.12 resolution=16]; the box is
+           length x depth x height, the panel about bevel*length long, resolution = columns
   cube     a closed cube [size=1 subdivide=0]
   prism    a closed right prism over a regular polygon [sides=6 radius=0.5 height=1 subdivide=0]
   grid     a flat quad grid in z=0 [nx=10 ny=10 size_x=1 size_y=1]
@@ -66,7 +68,8 @@ def _build_reflect(p: dict):
 def _build_trifold(p: dict):
     from fabkit.generate.trifold import trifold_panel
 
-    return trifold_panel(size=p["size"], length=p["length"], resolution=p["resolution"], height=p["height"])
+    return trifold_panel(length=p["length"], depth=p["depth"], height=p["height"], bevel=p["bevel"],
+                         extrude=p["extrude"], resolution=p["resolution"])
 
 
 def _build_cube(p: dict):
@@ -105,10 +108,12 @@ PRESETS: dict[str, tuple[Callable, dict[str, Param]]] = {
         "rows": Param(int, 4, "quads across each strip", True),
     }),
     "trifold": (_build_trifold, {
-        "size": Param(float, 0.6, "panel extent across the creases [m]", True),
-        "length": Param(float, 0.9, "panel extent along the creases [m]", True),
-        "resolution": Param(int, 4, "quads per strip along the creases, doubled per level ...", True),
-        "height": Param(float, 0.12, "rise of the middle strip [m]", True),
+        "length": Param(float, 1.6, "box length along the creases [m]", True),
+        "depth": Param(float, 0.8, "box depth [m]", True),
+        "height": Param(float, None, "box height [m] (default: depth)", True),
+        "bevel": Param(float, 0.2, "Conway bevel fraction, in (0, 1/2)", True),
+        "extrude": Param(float, 0.12, "width of the outer strips [m]", True),
+        "resolution": Param(int, 16, "columns along the creases (rounded up to a power of 2)", True),
     }),
     "cube": (_build_cube, {
         "size": Param(float, 1.0, "edge length [m]", True),
@@ -117,7 +122,7 @@ PRESETS: dict[str, tuple[Callable, dict[str, Param]]] = {
     "prism": (_build_prism, {
         "sides": Param(int, 6, "sides of the base polygon", True),
         "radius": Param(float, 0.5, "circumradius of the base [m]", True),
-        "height": Param(float, 1.0, "height [m]", True),
+        "height": Param(float, 1.0, "prism height [m]", True),
         "subdivide": Param(int, 0, "Catmull-Clark levels"),
     }),
     "grid": (_build_grid, {
@@ -186,7 +191,7 @@ def _estimate_faces(preset: str, p: dict) -> int:
         base = 6 if preset == "cube" else 2 * p["sides"]
         return base * 4 ** min(p["subdivide"], 20)
     if preset == "trifold":
-        return 64 * p["resolution"] ** 2
+        return 3 * p["resolution"]
     return 0
 
 

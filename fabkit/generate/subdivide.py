@@ -11,6 +11,14 @@ Rules (Catmull & Clark 1978; boundary rules as in DeRose et al. 1998 / OpenSubdi
 - boundary vertex with two boundary edges and at least two faces: (prev + 6 P + next) / 8;
 - corners (boundary vertices of a single face) and non-manifold boundary vertices stay fixed.
 
+Sharp creases (DeRose, Kass & Truong 1998, "infinitely sharp" creases; Maya and OpenSubdiv offer
+the same): with `crease_key`, the interior edges whose two faces differ in `face_data[crease_key]`
+(e.g. "strip": the fold creases) follow the boundary rules: edge point = midpoint; a vertex on
+exactly two sharp-or-boundary edges uses (prev + 6 P + next) / 8 along them; a vertex on three or
+more is a corner and stays; a vertex on one sharp edge (a dart) uses the smooth rule. The crease
+polylines then refine to cubic B-spline curves, and a crease polyline of three vertices gives a
+planar curve (paper §3.1).
+
 Numbering: the old vertices keep their ids (0..n-1), then one edge point per edge (in
 `topology.edges` order), then one face point per face. Every face of k corners becomes k quads
 (vertex, next edge point, face point, previous edge point), in corner order, so the new faces of
@@ -24,11 +32,14 @@ import scipy.sparse as sp
 
 from fabkit.mesh import MeshTopology, PolyMesh
 
-__all__ = ["catmull_clark", "catmull_clark_operator"]
+__all__ = ["catmull_clark", "catmull_clark_operator", "crease_edges_of"]
 
 
-def catmull_clark_operator(topology: MeshTopology) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+def catmull_clark_operator(topology: MeshTopology, sharp: np.ndarray | None = None
+                           ) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
     """`(S, quads, face_parent)` for one Catmull–Clark step of `topology`.
+
+    sharp: optional `(E,)` bool mask of interior edges to keep as sharp creases (boundary rules).
 
     S is the sparse `(n + E + F, n)` matrix with new vertices = S @ old vertices; quads `(C, 4)`
     (C = number of corners) are the new faces; face_parent `(C,)` the old face of every new face.
@@ -46,6 +57,11 @@ def catmull_clark_operator(topology: MeshTopology) -> tuple[sp.csr_matrix, np.nd
     edges = t.edges
     ef = t.edge_faces
     interior = np.all(ef >= 0, axis=1)
+    if sharp is not None:
+        sharp = np.asarray(sharp, dtype=bool)
+        if sharp.shape != (E,):
+            raise ValueError(f"sharp mask has shape {sharp.shape}, expected ({E},)")
+        interior = interior & ~sharp  # a sharp edge subdivides like a boundary edge
     e_all = np.arange(E)
     w_vert = np.where(interior, 0.25, 0.5)
     rows = [e_all, e_all]
@@ -62,7 +78,9 @@ def catmull_clark_operator(topology: MeshTopology) -> tuple[sp.csr_matrix, np.nd
     n_faces_at = np.bincount(idx, minlength=n)
     b_edges = edges[~interior]
     n_bedges = np.bincount(b_edges.ravel(), minlength=n)
-    is_boundary = n_bedges > 0
+    on_border = topology.boundary_vertex_mask
+    # a dart (one sharp edge, not on the boundary) keeps the smooth rule
+    is_boundary = (n_bedges >= 2) | on_border
     smooth_boundary = (n_bedges == 2) & (n_faces_at >= 2)
     inner = ~is_boundary & (n_faces_at > 0)
     # interior: Q/n + 2R/n + (n-3)/n P = (1/n^2) VF Fm + (1/n^2) A + ((n-2)/n) I
@@ -91,12 +109,28 @@ def catmull_clark_operator(topology: MeshTopology) -> tuple[sp.csr_matrix, np.nd
     return S, quads, cf.copy()
 
 
-def catmull_clark(mesh: PolyMesh, levels: int = 1) -> PolyMesh:
-    """`levels` Catmull–Clark steps; keeps old vertex ids, inherits face data (see module docstring)."""
+def crease_edges_of(mesh: PolyMesh, key: str) -> np.ndarray:
+    """`(E,)` mask of interior edges whose two faces differ in `face_data[key]`."""
+    if key not in mesh.face_data:
+        raise ValueError(f"mesh has no face data {key!r} to mark creases")
+    tag = np.asarray(mesh.face_data[key])
+    ef = mesh.edge_faces
+    inner = np.all(ef >= 0, axis=1)
+    out = np.zeros(mesh.n_edges, dtype=bool)
+    out[inner] = tag[ef[inner, 0]] != tag[ef[inner, 1]]
+    return out
+
+
+def catmull_clark(mesh: PolyMesh, levels: int = 1, crease_key: str | None = None) -> PolyMesh:
+    """`levels` Catmull–Clark steps; keeps old vertex ids, inherits face data (see module docstring).
+
+    crease_key: name of a face_data array; edges between faces with different values stay sharp.
+    """
     if int(levels) != levels or levels < 0:
         raise ValueError(f"levels must be a non-negative integer, got {levels}")
     for _ in range(int(levels)):
-        S, quads, parent = catmull_clark_operator(mesh.topology)
+        sharp = crease_edges_of(mesh, crease_key) if crease_key is not None else None
+        S, quads, parent = catmull_clark_operator(mesh.topology, sharp)
         V = S @ mesh.vertices
         fd = {k: np.asarray(v)[parent] for k, v in mesh.face_data.items()}
         vd = {k: S @ np.asarray(v, dtype=np.float64) for k, v in mesh.vertex_data.items()
