@@ -1,0 +1,124 @@
+"""Minimum-norm Gauss–Newton finish on the residual vector (angle defects, planarity residuals).
+
+Step: solve (J Jᵀ + μ I) y = r + J p and take δ = p − Jᵀ y, where p = t (x_ref − x) is an optional
+pull toward the input (closeness, t = w_c / (1 + w_c)). With p = 0 and μ → 0 this is the minimum-norm
+step −J⁺ r: it moves the vertices as little as possible, adds no rigid motion (rigid motions lie in
+J's null space) and converges quadratically near a solution. With p ≠ 0 the step also slides the
+shape along the constraint manifold toward x_ref.
+
+Why damped: the angle defect is nearly degenerate (second order) in some directions near flat or
+cylindrical regions. Undamped minimum-norm steps from a noisy start then wander far along them
+(measured: 40σ away from the unperturbed panel). μ = γ‖r‖∞² · boost (Yamashita–Fukushima) keeps the
+early steps gradient-like and local and the last ones pure Gauss–Newton; a trust region on the
+largest vertex move, adapted from the gain ratio ρ = actual / predicted decrease of ‖r‖², rejects
+steps the linear model does not predict.
+
+The linear algebra is scipy.sparse (SuperLU on the SPD system J Jᵀ + μI, which has one row per
+residual: about n_interior + n_faces, smaller than the 3n coordinates).
+"""
+from __future__ import annotations
+
+import time
+import warnings
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from fabkit.relax.dynamic import PhaseOutcome
+from fabkit.relax.energy import EnergyModel, Evaluation
+
+
+def _solve_spd(A: sp.csr_matrix, b: np.ndarray) -> np.ndarray | None:
+    """Sparse direct solve; None when the factorisation fails or the result is not finite."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", spla.MatrixRankWarning)
+            lu = spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                           options={"SymmetricMode": True})
+            y = lu.solve(b)
+    except (RuntimeError, spla.MatrixRankWarning):
+        return None
+    return y if np.all(np.isfinite(y)) else None
+
+
+def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Callable[[Evaluation], bool],
+                 x_ref: np.ndarray | None = None, closeness: float = 0.0,
+                 record: Callable[[str, Evaluation, float], None] | None = None,
+                 deadline: float | None = None, gamma: float = 100.0, mu_min: float = 1e-15, radius0: float = 0.05,
+                 max_failures: int = 12) -> PhaseOutcome:
+    """Damped Gauss–Newton iterations from X0 until `done` holds (see module docstring).
+
+    Trust region: a step may move no vertex further than `radius` × L (radius starts at `radius0` and
+    adapts to the gain ratio ρ = actual / predicted decrease of ‖r‖²); μ grows until the step fits.
+    Keeping steps where the linear model holds stops the minimum-norm step from wandering along the
+    nearly singular directions of the angle defect (nearly flat or cylindrical regions).
+    """
+    X = np.array(X0, dtype=np.float64, copy=True)
+    ev = model.evaluate(X)
+    if not ev.finite:
+        return PhaseOutcome(X, ev, 0, "diverged")
+    if done(ev):
+        return PhaseOutcome(X, ev, 0, "converged")
+    t = closeness / (1.0 + closeness) if (closeness > 0 and x_ref is not None) else 0.0
+    radius = radius0 * model.L
+    failures = 0
+    status = "max_iter"
+    it = 0
+    r, J = model.residuals_and_jacobian(X)
+    boost = 1.0
+    for it in range(1, max_iter + 1):
+        phi = float(r @ r)
+        # Levenberg parameter ~ ‖r‖² (Yamashita–Fukushima): damped far out, pure Gauss–Newton near the end
+        mu_rel = max(gamma * float(np.abs(r).max()) ** 2, mu_min) * boost
+        JJt = (J @ J.T).tocsr()
+        diag_scale = max(float(JJt.diagonal().mean()) if JJt.shape[0] else 1.0, 1e-300)
+        eye = sp.identity(JJt.shape[0], format="csr")
+        p = t * model.pack(x_ref - X) if t > 0 else np.zeros(J.shape[1])
+        rhs = r + J @ p if t > 0 else r
+        y0 = model.pack(X)
+        accepted = False
+        while failures <= max_failures:
+            y = _solve_spd(JJt + eye * (mu_rel * diag_scale), rhs)
+            if y is None:
+                boost *= 100.0
+                mu_rel *= 100.0
+                failures += 1
+                continue
+            step = p - J.T @ y
+            size = float(np.sqrt((step.reshape(-1, 3) ** 2).sum(axis=1)).max()) if len(step) else 0.0
+            if size > radius:
+                step *= radius / size     # stay inside the trust region
+                size = radius
+            lin = r + J @ step
+            pred = phi - float(lin @ lin)
+            X_try = model.unpack(y0 + step, X)
+            r_try, _ = model.residuals_and_jacobian(X_try, need_jacobian=False)
+            phi_try = float(r_try @ r_try)
+            rho = (phi - phi_try) / pred if pred > 0 else -1.0
+            if np.isfinite(phi_try) and phi_try < phi and rho > 0.25:
+                accepted = True
+                if rho > 0.75:
+                    radius = max(radius, 2.0 * size)
+                    boost = max(boost / 10.0, 1.0)
+                break
+            radius = 0.25 * size
+            boost *= 10.0
+            failures += 1
+        if not accepted:
+            status = "stalled"
+            break
+        X = X_try
+        failures = 0
+        r, J = model.residuals_and_jacobian(X)
+        ev = model.evaluate(X)
+        if record is not None:
+            record("newton", ev, 0.0)
+        if done(ev):
+            status = "converged"
+            break
+        if deadline is not None and time.perf_counter() > deadline:
+            status = "timeout"
+            break
+    return PhaseOutcome(X, ev, it, status)

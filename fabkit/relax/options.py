@@ -1,0 +1,178 @@
+"""Options and result of a relaxation (small frozen dataclasses, JSON-friendly)."""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from fabkit.errors import ToleranceError
+from fabkit.mesh import PolyMesh
+
+METHODS = ("dr", "newton", "lbfgs")
+BOUNDARIES = ("free", "fixed", "row-in-plane", "row-out", "row-in")
+
+
+@dataclass(frozen=True)
+class RelaxOptions:
+    """How to relax. Tolerances are the stopping criteria; every one must hold to count as converged.
+
+    method: "dr" dynamic relaxation with kinetic damping (paper §2.2), "newton" minimum-norm
+        Gauss–Newton from the start, "lbfgs" scipy L-BFGS on the same energy.
+    tol_defect [rad]: max |2π − Σθ| at interior vertices. tol_planarity: max plane distance of a face
+        vertex / mean edge length of the face. tol_force: max |∇E| · L per vertex (dimensionless).
+    boundary: "free" (planarity + boundary developability force, §2.5), "fixed", or an extra row of
+        fixed boundary faces "row-in-plane" | "row-out" | "row-in" (Fig. 9), `row_width` times the
+        mean boundary edge long; the row is removed from the output.
+    fixed: vertex ids held fixed (singularity points, §3.2), added to mesh.vertex_data["fixed"].
+    stage: developability first until max defect <= stage_defect, then both (§2.7).
+    closeness: weight pulling toward the input positions (penalty in DR/L-BFGS, null-space pull in
+        the Gauss–Newton steps, so a converged result is the nearby constraint-satisfying shape).
+    planarity_weight w_p, plane_method "cross" | "covariance" (§2.4).
+    damping: nominal viscous damping of DR velocities per step, in [0, 1) (§2.6).
+    finish: hand over to Gauss–Newton (dr, lbfgs) once both measures are below `finish_below` or
+        progress stalls. max_iter bounds DR / L-BFGS iterations, newton_max_iter the Newton steps.
+    max_seconds: optional wall-clock budget (None: unlimited).
+    """
+
+    method: str = "dr"
+    tol_defect: float = 1e-8
+    tol_planarity: float = 1e-8
+    tol_force: float = 1e-6
+    max_iter: int = 5000
+    newton_max_iter: int = 100
+    boundary: str = "free"
+    row_width: float = 1.0
+    fixed: tuple[int, ...] = ()
+    stage: bool = False
+    stage_defect: float = 1e-3
+    closeness: float = 0.0
+    planarity_weight: float = 1.0
+    plane_method: str = "cross"
+    damping: float = 0.0
+    finish: bool = True
+    finish_below: float = 1e-3
+    max_seconds: float | None = None
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
+        if self.boundary not in BOUNDARIES:
+            raise ValueError(f"boundary must be one of {', '.join(BOUNDARIES)}, got {self.boundary!r}")
+        if self.plane_method not in ("cross", "covariance"):
+            raise ValueError(f"plane_method must be cross or covariance, got {self.plane_method!r}")
+        for name in ("tol_defect", "tol_planarity", "tol_force"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, got {v}")
+        for name in ("closeness", "planarity_weight", "stage_defect", "finish_below"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a non-negative number, got {v}")
+        if not (0 <= self.damping < 1):
+            raise ValueError(f"damping must be in [0, 1), got {self.damping}")
+        if not (np.isfinite(self.row_width) and self.row_width > 0):
+            raise ValueError(f"row_width must be positive, got {self.row_width}")
+        if int(self.max_iter) < 0 or int(self.newton_max_iter) < 0:
+            raise ValueError("iteration limits must be >= 0")
+        object.__setattr__(self, "fixed", tuple(int(i) for i in self.fixed))
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class IterationRecord:
+    """One line of the convergence history."""
+
+    phase: str            # "dr", "dr-stage1", "lbfgs", "newton"
+    iteration: int        # running count over all phases
+    max_defect: float
+    mean_defect: float
+    max_planarity: float
+    mean_planarity: float
+    kinetic_energy: float  # DR only (0 elsewhere)
+    energy: float
+
+
+@dataclass(frozen=True)
+class RelaxResult:
+    """Outcome of a relaxation. `mesh` has the input's vertex order, faces and data.
+
+    `converged` is False when any tolerance was missed; `message` says which and why. `mesh` is then
+    the lowest-energy finite state reached (never NaN); call `raise_if_not_converged()` to turn that
+    into a `ToleranceError`.
+    """
+
+    mesh: PolyMesh
+    converged: bool
+    message: str
+    method: str
+    iterations: int
+    phase_iterations: dict
+    max_defect: float
+    mean_defect: float
+    max_planarity: float
+    mean_planarity: float
+    force_residual: float
+    max_displacement: float
+    mean_displacement: float
+    vertex_defect: np.ndarray       # (n,) rad, NaN off interior vertices (of the output mesh)
+    face_planarity: np.ndarray      # (m,)
+    vertex_displacement: np.ndarray  # (n,) m
+    history: tuple[IterationRecord, ...] = field(default_factory=tuple)
+    seconds: float = 0.0
+    options: RelaxOptions | None = None
+
+    def raise_if_not_converged(self) -> "RelaxResult":
+        if not self.converged:
+            raise ToleranceError(self.message)
+        return self
+
+    def to_report(self, per_element: bool = True) -> dict:
+        """JSON-ready dict: options, outcome, final measures, history (and per-vertex/face values)."""
+        out = {
+            "converged": self.converged,
+            "message": self.message,
+            "method": self.method,
+            "iterations": self.iterations,
+            "phase_iterations": dict(self.phase_iterations),
+            "seconds": self.seconds,
+            "options": self.options.to_dict() if self.options else None,
+            "final": {
+                "max_abs_angle_defect_rad": self.max_defect,
+                "mean_abs_angle_defect_rad": self.mean_defect,
+                "max_planarity": self.max_planarity,
+                "mean_planarity": self.mean_planarity,
+                "force_residual": self.force_residual,
+                "max_displacement_m": self.max_displacement,
+                "mean_displacement_m": self.mean_displacement,
+            },
+            "history": [asdict(h) for h in self.history],
+        }
+        if per_element:
+            out["final"]["vertex_angle_defect_rad"] = self.vertex_defect
+            out["final"]["face_planarity"] = self.face_planarity
+            out["final"]["vertex_displacement_m"] = self.vertex_displacement
+        return out
+
+
+def fixed_mask_from(mesh: PolyMesh, fixed: Sequence[int] | np.ndarray | None) -> np.ndarray:
+    """Boolean (n,) mask of fixed vertices: `fixed` (ids or a mask) OR mesh.vertex_data["fixed"]."""
+    n = mesh.n_vertices
+    mask = np.zeros(n, dtype=bool)
+    if "fixed" in mesh.vertex_data:
+        mask |= np.asarray(mesh.vertex_data["fixed"]).astype(bool).reshape(n)
+    if fixed is None:
+        return mask
+    arr = np.asarray(fixed)
+    if arr.dtype == bool:
+        if arr.shape != (n,):
+            raise ValueError(f"fixed mask has shape {arr.shape}, expected ({n},)")
+        return mask | arr
+    ids = arr.astype(np.int64).ravel()
+    bad = ids[(ids < 0) | (ids >= n)]
+    if len(bad):
+        raise ValueError(f"fixed vertex {int(bad[0])} does not exist (vertices are 0..{n - 1})")
+    mask[ids] = True
+    return mask

@@ -1,0 +1,205 @@
+"""The reusable relaxation solver: set up once per mesh (masks, boundary row, sparsity), solve many times."""
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from fabkit import measures
+from fabkit.errors import InputError
+from fabkit.mesh import PolyMesh
+from fabkit.relax.boundary import ROW_KINDS, ExtendedMesh, add_boundary_row
+from fabkit.relax.dynamic import PhaseOutcome, dynamic_relaxation
+from fabkit.relax.energy import EnergyModel, Evaluation
+from fabkit.relax.lbfgs import lbfgs
+from fabkit.relax.newton import gauss_newton
+from fabkit.relax.options import IterationRecord, RelaxOptions, RelaxResult, fixed_mask_from
+
+
+def check_relaxable(mesh: PolyMesh, source: str | None = None) -> None:
+    """Raise `InputError` (one line) for a mesh relaxation cannot work on."""
+    V = mesh.vertices
+    if not np.all(np.isfinite(V)):
+        v = int(np.flatnonzero(~np.all(np.isfinite(V), axis=1))[0])
+        raise InputError(f"vertex {v} has a non-finite coordinate", source=source)
+    if mesh.n_faces < 2:
+        raise InputError(f"the mesh has {mesh.n_faces} face: nothing to relax (a panel needs faces around "
+                         "at least one interior vertex)", source=source)
+    if not mesh.interior_vertex_mask.any():
+        raise InputError(f"the mesh has no interior vertex ({mesh.n_faces} faces): there is no angle defect "
+                         "to relax", source=source)
+    if np.any(mesh.edge_lengths <= 0):
+        e = int(np.flatnonzero(mesh.edge_lengths <= 0)[0])
+        raise InputError(f"edge {mesh.edges[e].tolist()} has zero length", source=source)
+
+
+class Relaxer:
+    """Relaxation set up for one mesh and one set of options.
+
+    `Relaxer(mesh, options, fixed=None)` validates the mesh, builds the problem (boundary row, fixed and
+    free vertices, energy model and Jacobian pattern); `solve(X0=None)` relaxes from the mesh's own
+    positions or from X0 (same vertex order) and returns a `RelaxResult`; `evaluate(X)` measures.
+    """
+
+    def __init__(self, mesh: PolyMesh, options: RelaxOptions | None = None, *, fixed=None,
+                 source: str | None = None, **overrides):
+        options = options or RelaxOptions()
+        if overrides:
+            options = dataclasses.replace(options, **overrides)
+        check_relaxable(mesh, source)
+        self.mesh = mesh
+        self.options = options
+        try:
+            fixed_mask = fixed_mask_from(mesh, list(options.fixed) + ([] if fixed is None else
+                                                                    list(np.flatnonzero(fixed)) if
+                                                                    np.asarray(fixed).dtype == bool else
+                                                                    list(np.asarray(fixed).ravel())))
+        except ValueError as exc:
+            raise InputError(str(exc), source=source) from None
+        self.fixed_mask = fixed_mask
+        self.length_scale = float(mesh.edge_lengths.mean())
+        t = mesh.topology
+        self.extended: ExtendedMesh | None = None
+        if options.boundary in ROW_KINDS:
+            self.extended = add_boundary_row(mesh, options.boundary, options.row_width)
+            pmesh = self.extended.mesh
+            row = self.extended.row_vertex_mask
+            fixed_all = np.concatenate([fixed_mask, np.zeros(pmesh.n_vertices - mesh.n_vertices, bool)])
+            free = pmesh.topology.used_vertex_mask & ~row & ~fixed_all
+            defect = pmesh.interior_vertex_mask.copy()
+        else:
+            pmesh = mesh
+            free = t.used_vertex_mask & ~fixed_mask
+            if options.boundary == "fixed":
+                free &= ~t.boundary_vertex_mask
+            defect = t.interior_vertex_mask.copy()
+        if not free.any():
+            raise InputError("every vertex is fixed: nothing can move", source=source)
+        self.problem_mesh = pmesh
+        self.x_ref = np.array(pmesh.vertices)
+        self.model = EnergyModel(pmesh.topology, defect_mask=defect, free_mask=free,
+                                 planarity_weight=options.planarity_weight, plane_method=options.plane_method,
+                                 length_scale=self.length_scale, closeness_weight=options.closeness,
+                                 x_ref=self.x_ref)
+
+    # ------------------------------------------------------------------------------------------
+    def _problem_positions(self, X0) -> np.ndarray:
+        if X0 is None:
+            return np.array(self.problem_mesh.vertices)
+        X0 = np.asarray(X0, dtype=np.float64)
+        if X0.shape != self.mesh.vertices.shape:
+            raise InputError(f"start positions have shape {X0.shape}, expected {self.mesh.vertices.shape}")
+        if not np.all(np.isfinite(X0)):
+            raise InputError("start positions contain NaN or Inf")
+        if self.extended is None:
+            return X0.copy()
+        X = np.array(self.problem_mesh.vertices)
+        X[:self.mesh.n_vertices] = X0
+        return X
+
+    def evaluate(self, X: np.ndarray | None = None) -> Evaluation:
+        """Energy and measures of the relaxation problem at X (original vertex order) or the input."""
+        return self.model.evaluate(self._problem_positions(X))
+
+    def _done(self, ev: Evaluation) -> bool:
+        o = self.options
+        return (ev.finite and ev.max_defect <= o.tol_defect and ev.max_planarity <= o.tol_planarity
+                and ev.force_residual <= o.tol_force)
+
+    def solve(self, X0: np.ndarray | None = None) -> RelaxResult:
+        o = self.options
+        t0 = time.perf_counter()
+        deadline = None if o.max_seconds is None else t0 + o.max_seconds
+        X = self._problem_positions(X0)
+        history: list[IterationRecord] = []
+        counts: dict[str, int] = {}
+
+        def record(phase: str, ev: Evaluation, ke: float) -> None:
+            counts[phase] = counts.get(phase, 0) + 1
+            history.append(IterationRecord(phase, len(history) + 1, ev.max_defect, ev.mean_defect,
+                                           ev.max_planarity, ev.mean_planarity, float(ke), float(ev.energy)))
+
+        def finish_switch(ev: Evaluation) -> bool:
+            return ev.max_defect <= o.finish_below and ev.max_planarity <= o.finish_below
+
+        statuses: list[str] = []
+        ev0 = self.model.evaluate(X)
+        if not ev0.finite:
+            raise InputError("the energy of the input is not finite (degenerate faces?)")
+        out: PhaseOutcome = PhaseOutcome(X, ev0, 0, "converged" if self._done(ev0) else "start")
+        if out.status != "converged":
+            budget = int(o.max_iter)
+            if o.method in ("dr", "lbfgs") and o.stage:
+                stage1 = dynamic_relaxation(self.model, X, max_iter=budget, done=lambda ev: False,
+                                            switch=lambda ev: ev.max_defect <= o.stage_defect,
+                                            damping=o.damping, planarity_weight=0.0, record=record,
+                                            phase="dr-stage1", deadline=deadline)
+                statuses.append(f"stage 1 {stage1.status}")
+                budget = max(budget - stage1.iterations, 0)
+                if stage1.status != "diverged":
+                    X = stage1.X
+            switch = finish_switch if o.finish else None
+            if o.method == "dr":
+                out = dynamic_relaxation(self.model, X, max_iter=budget, done=self._done, switch=switch,
+                                         damping=o.damping, record=record, deadline=deadline)
+                statuses.append(f"DR {out.status}")
+            elif o.method == "lbfgs":
+                out = lbfgs(self.model, X, max_iter=budget, done=self._done, switch=switch, record=record,
+                            deadline=deadline)
+                statuses.append(f"L-BFGS {out.status}")
+            if o.method == "newton" or (o.finish and out.status in ("switch", "stalled", "max_iter")):
+                start = out.X if o.method != "newton" else X
+                if o.method != "newton" and out.status == "diverged":
+                    start = X
+                nt = gauss_newton(self.model, start, max_iter=int(o.newton_max_iter), done=self._done,
+                                  x_ref=self.x_ref, closeness=o.closeness, record=record, deadline=deadline)
+                statuses.append(f"Newton {nt.status}")
+                out = nt if (nt.evaluation.finite and (nt.status == "converged" or
+                                                        out.status == "start" or
+                                                        nt.evaluation.energy <= out.evaluation.energy
+                                                        or not out.evaluation.finite)) else out
+        return self._result(out, history, counts, statuses, time.perf_counter() - t0)
+
+    # ------------------------------------------------------------------------------------------
+    def _result(self, out: PhaseOutcome, history, counts, statuses, seconds) -> RelaxResult:
+        o = self.options
+        X = out.X
+        if not np.all(np.isfinite(X)):  # never hand back NaN: fall back to the input
+            X = np.array(self.problem_mesh.vertices)
+            out = PhaseOutcome(X, self.model.evaluate(X), out.iterations, "diverged")
+        Xo = X[:self.mesh.n_vertices]
+        mesh = self.mesh.with_vertices(Xo)
+        vdef = measures.angle_defect(mesh)
+        fplan = measures.face_planarity(mesh, o.plane_method)
+        disp = np.linalg.norm(Xo - self.mesh.vertices, axis=1)
+        ev = out.evaluation
+        converged = self._done(ev)
+        # independent check on the output mesh with the shared measures
+        interior = np.abs(vdef[mesh.interior_vertex_mask])
+        out_def = float(interior.max()) if len(interior) else 0.0
+        out_plan = float(fplan.max()) if len(fplan) else 0.0
+        if converged and (out_def > o.tol_defect or out_plan > o.tol_planarity):
+            converged = False
+        n_it = len(history)
+        phases = ", ".join(statuses) if statuses else "input already within tolerance"
+        measures_txt = (f"max |angle defect| {ev.max_defect:.3g} rad (tol {o.tol_defect:g}), max planarity "
+                        f"{ev.max_planarity:.3g} (tol {o.tol_planarity:g}), force {ev.force_residual:.3g} "
+                        f"(tol {o.tol_force:g})")
+        if converged:
+            message = f"converged after {n_it} iterations ({phases}): {measures_txt}"
+        else:
+            message = f"did not converge after {n_it} iterations ({phases}): {measures_txt}"
+        return RelaxResult(
+            mesh=mesh, converged=converged, message=message, method=o.method, iterations=n_it,
+            phase_iterations=dict(counts), max_defect=ev.max_defect, mean_defect=ev.mean_defect,
+            max_planarity=ev.max_planarity, mean_planarity=ev.mean_planarity, force_residual=ev.force_residual,
+            max_displacement=float(disp.max()) if len(disp) else 0.0,
+            mean_displacement=float(disp[self.mesh.topology.used_vertex_mask].mean()) if len(disp) else 0.0,
+            vertex_defect=vdef, face_planarity=fplan, vertex_displacement=disp, history=tuple(history),
+            seconds=float(seconds), options=o)
+
+
+def relax(mesh: PolyMesh, options: RelaxOptions | None = None, *, fixed=None, **overrides) -> RelaxResult:
+    """One-shot relaxation: `Relaxer(mesh, options, fixed=fixed, **overrides).solve()`."""
+    return Relaxer(mesh, options, fixed=fixed, **overrides).solve()
