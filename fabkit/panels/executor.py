@@ -1,0 +1,73 @@
+"""Where per-panel work runs: in-process, a process pool, or a dask.distributed cluster.
+
+All three take the same picklable task function and arguments and return results in input
+order, so a run gives the same numbers wherever it ran. Worker processes get single-threaded
+BLAS (set in the environment before they import numpy) so no reduction order depends on the
+number of threads.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+from concurrent.futures import Executor, ProcessPoolExecutor
+from typing import Callable, Iterable, Iterator, Sequence
+
+__all__ = ["panel_executor", "map_ordered"]
+
+_SINGLE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+class _Serial(Executor):
+    """An executor that runs each task when submitted (no pickling, no processes)."""
+
+    def submit(self, fn, /, *args, **kwargs):
+        from concurrent.futures import Future
+
+        f = Future()
+        try:
+            f.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # delivered through the future like a real executor
+            f.set_exception(exc)
+        return f
+
+
+@contextlib.contextmanager
+def panel_executor(jobs: int = 1, scheduler: str | None = None) -> Iterator[Executor]:
+    """`jobs` = 1: in-process; > 1: spawn-based process pool; `scheduler`: a dask.distributed address."""
+    if scheduler:
+        from distributed import Client
+
+        client = Client(scheduler, timeout=30, set_as_default=False)
+        try:
+            yield client.get_executor()
+        finally:
+            client.close(timeout=10)
+        return
+    if jobs <= 1:
+        yield _Serial()
+        return
+    import multiprocessing as mp
+
+    saved = {k: os.environ.get(k) for k in _SINGLE_THREAD}
+    os.environ.update(_SINGLE_THREAD)  # inherited by the spawned workers before they import numpy
+    try:
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn")) as pool:
+            yield pool
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def map_ordered(executor: Executor, fn: Callable, items: Sequence, progress: Callable | None = None,
+                timeout: float | None = None) -> list:
+    """Submit `fn(item)` for every item and return the results in input order."""
+    futures = [executor.submit(fn, item) for item in items]
+    out = []
+    for f in futures:
+        out.append(f.result(timeout=timeout))
+        if progress:
+            progress()
+    return out
