@@ -137,15 +137,16 @@ def build_cell_model(cell, panel_state: PanelModel | None = None, *, state: floa
     if panel_state is not None:
         grip = panel_state.grip_face
         P, Qt = interpolate_poses(panel_state.pos, panel_state.quat, state)
+        ids = panel_state.face_ids or tuple(range(len(panel_state.pieces)))
         for f, verts in enumerate(panel_state.pieces.local_vertices):
-            spec.add_mesh(name=f"face_{f}_mesh", uservert=np.asarray(verts, float).ravel().tolist())
-            body = world.add_body(name=f"panel_face_{f}", mocap=True, pos=list(P[f]), quat=list(Qt[f]))
-            body.add_geom(name=f"face_{f}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"face_{f}_mesh",
+            spec.add_mesh(name=f"face_{ids[f]}_mesh", uservert=np.asarray(verts, float).ravel().tolist())
+            body = world.add_body(name=f"panel_face_{ids[f]}", mocap=True, pos=list(P[f]), quat=list(Qt[f]))
+            body.add_geom(name=f"face_{ids[f]}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"face_{ids[f]}_mesh",
                           contype=BIT_PANEL, conaffinity=0, margin=window,
                           rgba=_rgba("grip" if f == grip else "panel"))
             panel_bodies.append(body.name)
         if grip is not None:
-            spec.add_exclude(bodyname1="tool", bodyname2=f"panel_face_{grip}")
+            spec.add_exclude(bodyname1="tool", bodyname2=panel_bodies[grip])
 
     m = spec.compile()
     geom_names = tuple(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom_{g}" for g in range(m.ngeom))

@@ -14,7 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-__all__ = ["PanelPieces", "PanelModel", "panel_pieces", "piece_poses", "interpolate_poses", "panel_model"]
+__all__ = ["PanelPieces", "PanelModel", "panel_pieces", "piece_poses", "interpolate_poses", "panel_model",
+           "panel_from_fold", "DEFAULT_THICKNESS"]
+
+#: Sheet thickness of the panel pieces (m) when the caller does not give one.
+DEFAULT_THICKNESS = 0.001
 
 
 @dataclass(frozen=True, eq=False)
@@ -32,25 +36,22 @@ class PanelPieces:
 
 
 def _face_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Centroid and rotation (columns x, y, z) of a polygon; z is its best-fit normal, oriented by
-    the polygon's winding (counter-clockwise seen from +z)."""
+    """Centroid and rotation (columns x, y, z) of a face's vertices; z is the best-fit plane normal
+    (smallest principal direction; its sign does not matter for a prism symmetric about the plane).
+    The vertices need no order, so a polygon stored as triangles works as well."""
     c = points.mean(axis=0)
     p = points - c
-    normal = np.zeros(3)
-    for i in range(len(p)):  # Newell's normal: orientation follows the winding
-        normal += np.cross(p[i], p[(i + 1) % len(p)])
-    n = np.linalg.norm(normal)
-    if not np.isfinite(n) or n < 1e-12:
+    _, sv, vt = np.linalg.svd(p, full_matrices=True)
+    if len(sv) < 2 or not np.all(np.isfinite(sv)) or sv[1] < 1e-9:
         raise ValueError("degenerate face: zero area")
-    z = normal / n
-    x = p[0] - z * (p[0] @ z)
-    x /= np.linalg.norm(x)
-    return c, np.column_stack([x, np.cross(z, x), z])
+    x, y = vt[0], vt[1]
+    return c, np.column_stack([x, y, np.cross(x, y)])
 
 
-def panel_pieces(vertices, faces, thickness: float = 0.001) -> PanelPieces:
+def panel_pieces(vertices, faces, thickness: float = DEFAULT_THICKNESS) -> PanelPieces:
     """Build the pieces from reference vertex coordinates (n, 3) in the panel frame (usually the
-    flat crease pattern) and polygon faces (sequences of vertex ids)."""
+    flat crease pattern) and faces (sequences of vertex ids: a polygon, or all the distinct
+    vertices of a polygon stored as triangles)."""
     V = np.asarray(vertices, dtype=np.float64)
     if V.ndim != 2 or V.shape[1] != 3 or not np.isfinite(V).all():
         raise ValueError("panel vertices must be a finite (n, 3) array")
@@ -58,7 +59,7 @@ def panel_pieces(vertices, faces, thickness: float = 0.001) -> PanelPieces:
         raise ValueError("panel thickness must be positive")
     polys, prisms, fs = [], [], []
     for f, face in enumerate(faces):
-        idx = np.asarray(face, dtype=np.int64)
+        idx = np.unique(np.asarray(face, dtype=np.int64))
         if len(idx) < 3 or idx.min() < 0 or idx.max() >= len(V):
             raise ValueError(f"panel face {f} has bad vertex ids {idx.tolist()}")
         try:
@@ -120,8 +121,9 @@ class PanelModel:
     """The panel for the cell model: convex pieces and their world poses in every fold state.
 
     `pos` (S, F, 3) and `quat` (S, F, 4, scalar first) are in the world frame (fixture applied);
-    `grip_face` the face the tool holds (its contact with the tool is excluded), or None;
-    `fit_residual` (S, F) how far each state departs from a rigid motion of each face (m).
+    `grip_face` the index of the piece the tool holds (its contact with the tool is excluded), or
+    None; `fit_residual` (S, F) how far each state departs from a rigid motion of each face (m);
+    `face_ids` the panel's id of each piece (polygon id), for names.
     """
 
     pieces: PanelPieces
@@ -129,6 +131,7 @@ class PanelModel:
     quat: np.ndarray
     grip_face: int | None = None
     fit_residual: np.ndarray | None = None
+    face_ids: tuple[int, ...] = ()
 
     @property
     def n_states(self) -> int:
@@ -140,11 +143,12 @@ class PanelModel:
 
 
 def panel_model(reference_vertices, faces, states_vertices, fixture, *, grip_face: int | None = None,
-                thickness: float = 0.001) -> PanelModel:
+                thickness: float = DEFAULT_THICKNESS, face_ids=None) -> PanelModel:
     """Pieces from the reference (flat) vertices and faces, posed for each state in the world.
 
     `states_vertices` (S, n, 3): vertex coordinates of every fold state in the panel frame;
-    `fixture` 4x4: panel frame -> world.
+    `fixture` 4x4: panel frame -> world; `face_ids` the id of each face (default 0..F-1), used to
+    name the pieces `face_<id>`.
     """
     pieces = panel_pieces(reference_vertices, faces, thickness)
     S = np.asarray(states_vertices, dtype=np.float64)
@@ -162,4 +166,26 @@ def panel_model(reference_vertices, faces, states_vertices, fixture, *, grip_fac
         pos[k] = p @ Fx[:3, :3].T + Fx[:3, 3]
         world = rot_fix * Rotation.from_quat(q[:, [1, 2, 3, 0]])
         quat[k] = world.as_quat()[:, [3, 0, 1, 2]]
-    return PanelModel(pieces, pos, quat, None if grip_face is None else int(grip_face), res)
+    ids = np.arange(len(pieces)) if face_ids is None else np.asarray(face_ids, dtype=np.int64)
+    return PanelModel(pieces, pos, quat, None if grip_face is None else int(grip_face), res, tuple(int(i) for i in ids))
+
+
+def panel_from_fold(model, fixture, *, grip_face_id: int | None = None, thickness: float = DEFAULT_THICKNESS,
+                    source: str | None = None) -> PanelModel:
+    """The panel of a `fabkit.fold.FoldModel`: one piece per polygon (triangles of one polygon are
+    grouped by `faces_fabkit:polygon`, as `fabkit.frames.face_groups` does), reference shape from the
+    key frame (the crease pattern), poses for every fold state (`fabkit.frames.fold_positions`,
+    the same states the toolpath's `state` indexes). `grip_face_id`: polygon id of the grip face."""
+    from fabkit.frames import face_groups, fold_positions
+
+    groups = face_groups(model.faces_vertices, model.faces_data, source)
+    grip = None
+    if grip_face_id is not None:
+        try:
+            grip = groups.index_of(int(grip_face_id))
+        except KeyError:
+            from fabkit.errors import InputError
+
+            raise InputError(f"grip face {grip_face_id} is not a face of the panel", source=source) from None
+    return panel_model(model.vertices_coords, groups.vertices, fold_positions(model), fixture, grip_face=grip,
+                       thickness=thickness, face_ids=groups.ids)
