@@ -201,20 +201,22 @@ def test_round_trip_is_exact(tmp_path, rng):
 
 
 def test_unit_and_angle_conversion_exact_on_many_random_values(rng):
-    from fabkit.io.fold import (UNIT_TO_METRES, _degrees_to_radians, _metres_to_mm_text, _Num,
-                                _radians_to_degrees_text, _to_si)
+    from fabkit.io.fold import _degrees_to_radians, _metres_to_mm_text, _Num, _radians_to_degrees_text, _to_si
 
     V = rng.uniform(-3, 3, size=3000) * 10.0 ** rng.integers(-6, 2, size=3000)
     texts = [_metres_to_mm_text(x) for x in V]
-    back = np.array([_to_si(_Num(t) if "." in t or "e" in t else int(t), UNIT_TO_METRES["mm"]) for t in texts])
+    back = np.array([_to_si(_Num(t) if "." in t or "e" in t else int(t), "mm") for t in texts])
     assert np.array_equal(back, V)
+    # the same through the decimal path (exponent texts) and the text of a JSON integer
+    assert _to_si(_Num("1.5e-2"), "mm") == 1.5e-5 and _to_si(1500, "mm") == 1.5
+    assert _to_si(_Num("2.54"), "cm") == 0.0254 and _to_si(_Num("0.1"), "m") == 0.1
     np.testing.assert_allclose(np.array([float(t) for t in texts]), V * 1000, rtol=1e-15)
     A = np.concatenate([rng.uniform(-np.pi, np.pi, 3000), [np.pi, -np.pi, np.pi / 2, 0.0]])
     deg = [_radians_to_degrees_text(a) for a in A]
     assert np.array_equal(np.array([_degrees_to_radians(_Num(t)) for t in deg]), A)
-    assert deg[-4:] == ["180.0", "-180.0", "90.0", "0.0"]
+    assert deg[-4:] == ["180.0", "-180.0", "90.0", "0"]
     assert max(len(t) for t in deg) <= 24
-    assert _to_si(1, UNIT_TO_METRES["in"]) == 0.0254 and _to_si(72, UNIT_TO_METRES["pt"]) == 0.0254
+    assert _to_si(1, "in") == 0.0254 and _to_si(72, "pt") == 0.0254 and _to_si(_Num("0.5"), "um") == 5e-7
 
 
 # ---- reading public-style shapes (our own look-alike fixtures) -----------------------------------

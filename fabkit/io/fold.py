@@ -36,7 +36,7 @@ from fabkit.fold import ASSIGNMENTS, FoldFrame, FoldModel, validate_fold_model
 from fabkit.io.atomic import atomic_write
 from fabkit.io.obj import read_text
 
-__all__ = ["load_fold", "save_fold", "parse_fold", "fold_to_json", "UNIT_TO_METRES", "FOLD_SPEC"]
+__all__ = ["load_fold", "save_fold", "parse_fold", "fold_to_json", "fold_text", "UNIT_TO_METRES", "FOLD_SPEC"]
 
 FOLD_SPEC = 1.2
 WRITE_UNIT = "mm"
@@ -73,6 +73,8 @@ UNIT_TO_METRES: dict[str, decimal.Decimal] = {
     "um": decimal.Decimal("1e-6"), "nm": decimal.Decimal("1e-9"), "in": decimal.Decimal("0.0254"),
     "pt": _CTX.divide(decimal.Decimal("0.0254"), decimal.Decimal(72)), "unit": decimal.Decimal(1),
 }
+#: units that are a power of ten of a metre: metres = value * 10**-k, done by appending "e-k" to the text
+_POW10 = {"m": 0, "unit": 0, "cm": 2, "mm": 3, "um": 6, "nm": 9}
 
 _PREFIX = "fabkit:"
 _KEY_TOPOLOGY = ("edges_vertices", "faces_vertices")
@@ -103,20 +105,42 @@ def _decimal_json(d: decimal.Decimal) -> str:
     return str(d).replace("E", "e")
 
 
-def _to_si(x: float | int, factor: decimal.Decimal) -> float:
-    """A number from the file (in file units) -> metres, rounded once."""
-    if factor == 1:
+def _to_si(x: float | int, unit: str) -> float:
+    """A number from the file in `unit` -> metres, rounded once (exactly the decimal the file wrote)."""
+    k = _POW10.get(unit)
+    if k == 0:
         return float(x)
-    return float(_CTX.multiply(decimal.Decimal(_text(x)), factor))
+    t = _text(x)
+    if k is not None and "e" not in t and "E" not in t:
+        return float(f"{t}e-{k}")  # Python's float() rounds the exact decimal once
+    return float(_CTX.multiply(decimal.Decimal(t), UNIT_TO_METRES[unit]))
 
 
 def _metres_to_mm_text(x: float) -> str:
-    """Exact decimal of `repr(x)` metres in millimetres (reads back to exactly x)."""
-    return _decimal_json(decimal.Decimal(repr(float(x))).scaleb(3))
+    """`repr(x)` metres with the decimal point moved three places: exact, reads back to exactly x."""
+    r = repr(float(x))
+    if "e" in r or "n" in r:  # exponent form, inf, nan: let decimal do it
+        return _decimal_json(decimal.Decimal(r).scaleb(3))
+    sign = "-" if r[0] == "-" else ""
+    whole, frac = r.lstrip("-").split(".")
+    frac = frac.ljust(3, "0")
+    new_whole = (whole + frac[:3]).lstrip("0") or "0"
+    new_frac = frac[3:].rstrip("0")
+    return sign + new_whole + ("." + new_frac if new_frac else "")
+
+
+_RADIANS_OF: dict[str, float] = {}
 
 
 def _degrees_to_radians(x: float | int) -> float:
-    return float(_CTX.multiply(decimal.Decimal(_text(x)), _RAD_PER_DEG))
+    """Degrees (file text) -> radians through pi/180 to 40 digits, rounded once (memoised by text)."""
+    t = _text(x)
+    a = _RADIANS_OF.get(t)
+    if a is None:
+        a = float(_CTX.multiply(decimal.Decimal(t), _RAD_PER_DEG))
+        if len(_RADIANS_OF) < 100_000:
+            _RADIANS_OF[t] = a
+    return a
 
 
 def _radians_to_degrees_text(a: float) -> str | None:
@@ -124,6 +148,8 @@ def _radians_to_degrees_text(a: float) -> str | None:
     a = float(a)
     if math.isnan(a):
         return None
+    if a == 0.0:
+        return "0"
     t = repr(float(np.degrees(a)))
     if _degrees_to_radians(_Num(t)) == a:
         return t
@@ -135,19 +161,38 @@ def _radians_to_degrees_text(a: float) -> str | None:
     return repr(float(np.degrees(a)))  # pragma: no cover - 30 digits always suffice
 
 
-def _coords_json(V: np.ndarray) -> list[list[_Num]]:
-    return [[_Num(_metres_to_mm_text(c)) for c in row] for row in V.tolist()]
+# ---- writing -------------------------------------------------------------------------------------
+class _Raw(str):
+    """JSON text already encoded (written verbatim)."""
 
 
-def _angles_json(a: np.ndarray) -> list:
+class _Rows(list):
+    """Encoded JSON array elements, written one per line."""
+
+
+def _coords_rows(V: np.ndarray) -> _Rows:
+    texts = list(map(_metres_to_mm_text, V.ravel().tolist()))
+    it = iter(texts)
+    return _Rows(f"[{a},{b},{c}]" for a, b, c in zip(it, it, it))
+
+
+def _angles_raw(a: np.ndarray) -> _Raw:
+    memo: dict[float, str] = {}
     out = []
     for x in a.tolist():
-        t = _radians_to_degrees_text(x)
-        out.append(None if t is None else _Num(t))
-    return out
+        t = memo.get(x)
+        if t is None:
+            t = _radians_to_degrees_text(x) or "null"
+            if x == x:  # NaN is not a usable key
+                memo[x] = t
+        out.append(t)
+    return _Raw("[" + ",".join(out) + "]")
 
 
-# ---- writing -------------------------------------------------------------------------------------
+def _int_rows(rows) -> _Rows:
+    return _Rows("[" + ",".join(map(str, r)) + "]" for r in rows)
+
+
 def _jsonable_array(arr: np.ndarray) -> list:
     """Array -> nested lists with NaN as None (JSON null)."""
     arr = np.asarray(arr)
@@ -158,13 +203,17 @@ def _jsonable_array(arr: np.ndarray) -> list:
     return arr.tolist()
 
 
+def _data_raw(arr: np.ndarray) -> _Raw:
+    return _Raw(json.dumps(_jsonable_array(arr), separators=(",", ":"), allow_nan=False))
+
+
 def _key(kind: str, name: str) -> str:
     """`faces` + `strip` -> `faces_fabkit:strip`; names that already contain ':' are kept verbatim."""
     return name if ":" in name else f"{kind}_{_PREFIX}{name}"
 
 
-def fold_to_json(model: FoldModel) -> dict[str, Any]:
-    """The FOLD 1.2 dictionary of a model (millimetres, degrees)."""
+def _fold_parts(model: FoldModel) -> dict[str, Any]:
+    """The FOLD 1.2 top level, big arrays pre-encoded (millimetres, degrees)."""
     d: dict[str, Any] = {
         "file_spec": FOLD_SPEC,
         "file_creator": "fabkit",
@@ -179,62 +228,66 @@ def fold_to_json(model: FoldModel) -> dict[str, Any]:
     if model.attributes:
         d["frame_attributes"] = list(model.attributes)
     d["frame_unit"] = WRITE_UNIT
-    d["vertices_coords"] = _coords_json(model.vertices_coords)
-    d["edges_vertices"] = model.edges_vertices.tolist()
-    d["edges_assignment"] = model.edges_assignment.tolist()
-    d["edges_foldAngle"] = _angles_json(model.edges_fold_angle)
-    d["faces_vertices"] = [list(f) for f in model.faces_vertices]
+    d["vertices_coords"] = _coords_rows(model.vertices_coords)
+    d["edges_vertices"] = _int_rows(model.edges_vertices.tolist())
+    d["edges_assignment"] = _Raw(json.dumps(model.edges_assignment.tolist(), separators=(",", ":")))
+    d["edges_foldAngle"] = _angles_raw(model.edges_fold_angle)
+    d["faces_vertices"] = _int_rows(model.faces_vertices)
     for kind, data in (("vertices", model.vertices_data), ("edges", model.edges_data), ("faces", model.faces_data)):
         for name, arr in data.items():
-            d[_key(kind, name)] = _jsonable_array(arr)
+            d[_key(kind, name)] = _data_raw(arr)
     if model.frames:
-        d["file_frames"] = [_frame_json(f) for f in model.frames]
+        d["file_frames"] = [_frame_parts(f) for f in model.frames]
     return d
 
 
-def _frame_json(frame: FoldFrame) -> dict[str, Any]:
+def _frame_parts(frame: FoldFrame) -> dict[str, Any]:
     d: dict[str, Any] = {
         "frame_parent": 0,
         "frame_inherit": True,
         "frame_classes": list(frame.classes),
         "frame_attributes": list(frame.attributes),
-        "vertices_coords": _coords_json(frame.vertices_coords),
+        "vertices_coords": _coords_rows(frame.vertices_coords),
     }
     if frame.edges_fold_angle is not None:
-        d["edges_foldAngle"] = _angles_json(frame.edges_fold_angle)
+        d["edges_foldAngle"] = _angles_raw(frame.edges_fold_angle)
     for name, value in frame.data.items():
-        d[_key("frame", name)] = _jsonable_array(value) if isinstance(value, np.ndarray) else value
+        d[_key("frame", name)] = _data_raw(value) if isinstance(value, np.ndarray) else value
     return d
-
-
-def _enc(v: Any) -> str:
-    """Compact JSON of a value; `_Num` keeps its exact text, NaN/Inf are refused."""
-    if isinstance(v, _Num):
-        return v.text
-    if isinstance(v, list):
-        return "[" + ",".join(_enc(x) for x in v) + "]"
-    return json.dumps(v, separators=(",", ":"), allow_nan=False)
 
 
 def _dump(d: dict[str, Any], indent: str = "") -> str:
     """JSON with one top-level key per line and one array element per line (readable, diffable)."""
     lines = []
     for k, v in d.items():
+        key = json.dumps(k)
         if k == "file_frames":
             body = (",\n" + indent + "  ").join(_dump(f, indent + "  ") for f in v)
-            lines.append(f'{indent} {json.dumps(k)}: [\n{indent}  {body}\n{indent} ]')
-        elif isinstance(v, list) and v and isinstance(v[0], list):
-            rows = (",\n" + indent + "  ").join(_enc(r) for r in v)
-            lines.append(f'{indent} {json.dumps(k)}: [\n{indent}  {rows}\n{indent} ]')
+            lines.append(f"{indent} {key}: [\n{indent}  {body}\n{indent} ]")
+        elif isinstance(v, _Rows):
+            rows = (",\n" + indent + "  ").join(v)
+            lines.append(f"{indent} {key}: [\n{indent}  {rows}\n{indent} ]" if v else f"{indent} {key}: []")
+        elif isinstance(v, _Raw):
+            lines.append(f"{indent} {key}: {v}")
         else:
-            lines.append(f"{indent} {json.dumps(k)}: {_enc(v)}")
+            lines.append(f"{indent} {key}: {json.dumps(v, separators=(',', ':'), allow_nan=False)}")
     return "{\n" + ",\n".join(lines) + "\n" + indent + "}"
+
+
+def fold_text(model: FoldModel) -> str:
+    """The FOLD 1.2 text of a model (not validated; `save_fold` validates first)."""
+    return _dump(_fold_parts(model)) + "\n"
+
+
+def fold_to_json(model: FoldModel) -> dict[str, Any]:
+    """The FOLD 1.2 dictionary of a model, exactly as `save_fold` writes it (millimetres, degrees)."""
+    return json.loads(fold_text(model), parse_float=_Num)
 
 
 def save_fold(model: FoldModel, path: str | os.PathLike) -> None:
     """Validate `model` and write it as FOLD 1.2 (frame_unit mm, degrees) atomically."""
     validate_fold_model(model, source=str(path))
-    text = _dump(fold_to_json(model)) + "\n"
+    text = fold_text(model)
     with atomic_write(path) as fh:
         fh.write(text)
 
@@ -254,17 +307,30 @@ def _list(value: Any, key: str, source: str) -> list:
     return value
 
 
-def _coords(value: Any, key: str, factor: decimal.Decimal, source: str) -> np.ndarray:
-    """`vertices_coords` (2D or 3D rows of finite numbers, file units) -> (n, 3) metres."""
+def _coords(value: Any, key: str, unit: str, source: str) -> np.ndarray:
+    """`vertices_coords` (2D or 3D rows of finite numbers, in `unit`) -> (n, 3) metres."""
     rows = _list(value, key, source)
-    out = np.zeros((len(rows), 3))
+    if rows and all(type(r) is list for r in rows):
+        lengths = {len(r) for r in rows}
+        types = {type(c) for r in rows for c in r}
+        if lengths <= {2, 3} and types <= {int, _Num}:  # fast path: well-formed (checked, not assumed)
+            out = np.zeros((len(rows), 3))
+            if lengths == {3} or lengths == {2}:
+                flat = [_to_si(c, unit) for r in rows for c in r]
+                out[:, :lengths.pop()] = np.array(flat).reshape(len(rows), -1)
+            else:
+                for i, r in enumerate(rows):
+                    out[i, :len(r)] = [_to_si(c, unit) for c in r]
+            bad = ~np.all(np.isfinite(out), axis=1)
+            if not np.any(bad):
+                return out
+    # slow path: find the first bad entry and say what is wrong with it
     for i, r in enumerate(rows):
         if not isinstance(r, list) or len(r) not in (2, 3) or not all(_is_number(c) for c in r):
             raise InputError(f"{key}[{i}] is {_short(r)}: a vertex needs 2 or 3 numbers", source=source)
-        if not all(math.isfinite(c) for c in r):
+        if not all(math.isfinite(_to_si(c, unit)) for c in r):
             raise InputError(f"{key}[{i}] is {_short(r)}: coordinates must be finite", source=source)
-        out[i, :len(r)] = [_to_si(c, factor) for c in r]
-    return out
+    return np.zeros((0, 3))
 
 
 def _index_rows(value: Any, key: str, width: int | None, source: str) -> list[list[int]]:
@@ -316,7 +382,7 @@ def _data_array(value: Any, key: str, source: str) -> np.ndarray:
 
 def _short(x: Any) -> str:
     try:
-        s = _enc(x) if not isinstance(x, float) or math.isfinite(x) else str(x)
+        s = json.dumps(x, separators=(",", ":")) if not isinstance(x, float) or math.isfinite(x) else str(x)
     except (TypeError, ValueError):
         s = repr(x)
     return s if len(s) <= 40 else s[:37] + "..."
@@ -411,8 +477,7 @@ def parse_fold(d: Any, source: str = "<fold>") -> FoldModel:
         raise InputError("no vertices_coords (a FOLD file needs vertex coordinates)", source=source)
     if "faces_vertices" not in d:
         raise InputError("no faces_vertices (fabkit and Origami Simulator need faces)", source=source)
-    scale = UNIT_TO_METRES[unit]
-    V = _coords(d["vertices_coords"], "vertices_coords", scale, source)
+    V = _coords(d["vertices_coords"], "vertices_coords", unit, source)
     faces = _index_rows(d["faces_vertices"], "faces_vertices", None, source)
     if "edges_vertices" in d:
         edges = np.array(_index_rows(d["edges_vertices"], "edges_vertices", 2, source), dtype=np.int64).reshape(-1, 2)
@@ -489,7 +554,7 @@ def _parse_frames(d: dict, V: np.ndarray, unit: str, faces: list, edges: np.ndar
         base_V, base_angle, base_unit = resolved[parent] if inherit else (None, None, unit)
         funit = _unit(f, where, base_unit, source)
         if "vertices_coords" in f:
-            Vf = _coords(f["vertices_coords"], where + "vertices_coords", UNIT_TO_METRES[funit], source)
+            Vf = _coords(f["vertices_coords"], where + "vertices_coords", funit, source)
         elif base_V is not None:
             Vf = base_V
         else:
