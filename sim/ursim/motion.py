@@ -33,6 +33,8 @@ KNOT_STEP_M = 0.004
 KNOT_STEP_RAD = 0.02
 #: Segments shorter than this (m) count as pure rotations.
 MIN_TRANSLATION = 1e-7
+#: Segments shorter than this (m, or rad for movej) are not blended (the arm is already there).
+MIN_BLEND_SEGMENT = 1e-5
 #: Largest joint jump between neighbouring IK knots before the move is declared discontinuous.
 MAX_KNOT_JUMP = 0.35
 
@@ -175,7 +177,7 @@ def _joint_run(model, q0, targets, v, a, r, tcp):
     tlen = np.linalg.norm(np.diff(P, axis=0), axis=1)
     # blend: r metres of TCP travel -> parameter units per segment
     seg = [(plen[i], plen[i] / tlen[i] if tlen[i] > 1e-9 else 0.0) for i in range(len(d))]
-    blendable = plen > 1e-12
+    blendable = plen > MIN_BLEND_SEGMENT
     before, after = _blend_lengths(np.asarray(r), seg, blendable, list(range(len(d))))
     pieces, s, begins = [], 0.0, [0.0]
     start_off = 0.0
@@ -227,7 +229,7 @@ def _cart_run(P0, R0, poses, v, a, r):
     trans = tl > MIN_TRANSLATION
     plen = np.where(trans, tl, ang)
     seg = [(plen[i], 1.0) for i in range(len(d))]
-    before, after = _blend_lengths(np.asarray(r), seg, trans, list(range(len(d))))
+    before, after = _blend_lengths(np.asarray(r), seg, trans & (plen > MIN_BLEND_SEGMENT), list(range(len(d))))
     pieces, s, start_off, begins, stops = [], 0.0, 0.0, [0.0], []
     for i in range(len(d)):
         if plen[i] <= 1e-12:

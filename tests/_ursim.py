@@ -1,0 +1,151 @@
+"""Test helpers for the controller stand-in: run it as a subprocess on a loopback address, build a
+demo toolpath in the ur5e_bench cell and its real MuJoCo check report.
+
+`FABKIT_UR_HOST` points the same tests at a real URSim or robot instead (`ur_host()`); the
+fault-injection tests skip themselves there.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+CELL = ROOT / "cells" / "ur5e_bench.toml"
+
+
+def external_host() -> str | None:
+    return os.environ.get("FABKIT_UR_HOST") or None
+
+
+def wait_for_banner(host: str, timeout: float = 20.0, port: int = 29999) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        with contextlib.suppress(OSError):
+            with socket.create_connection((host, port), timeout=1.0) as s:
+                s.settimeout(2.0)
+                if s.recv(256):
+                    return True
+        time.sleep(0.05)
+    return False
+
+
+class StandIn:
+    """`python -m sim.ursim` in a subprocess on `host`; always killed by `stop()`."""
+
+    def __init__(self, host: str, *args: str, log: Path | None = None):
+        self.host = host
+        self.log = log
+        out = open(log, "w") if log else subprocess.DEVNULL
+        self.proc = subprocess.Popen([sys.executable, "-m", "sim.ursim", "--host", host, *args],
+                                     stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, cwd=ROOT)
+        if log:
+            out.close()
+        if not wait_for_banner(host):
+            self.stop()
+            raise RuntimeError(f"stand-in did not start on {host}: {self.log_text()[-2000:]}")
+
+    def log_text(self) -> str:
+        return self.log.read_text() if self.log and self.log.exists() else ""
+
+    def admin(self, line: str) -> dict:
+        from sim.ursim.admin import admin_request
+
+        return admin_request(self.host, line)
+
+    def state(self) -> dict:
+        return self.admin("state")["state"]
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(timeout=5)
+
+
+def demo_toolpath(n_fold: int = 56, r_max: float = 0.01):
+    """A toolpath in the ur5e_bench cell: home (movej), approach (movej), a blended movel curve of
+    `n_fold` waypoints over the fixture, retract (movel), home (movej)."""
+    from robot import kinematics as K
+    from robot.cell import load_cell, matrix_to_pose, pose_to_matrix
+    from robot.motion import blend_radii
+    from robot.toolpath import Toolpath
+
+    cell = load_cell(CELL)
+    model = cell.model
+    tcp = cell.tool.tcp
+    home = np.asarray(cell.robot.home, dtype=np.float64)
+    T_home = K.fk_tcp(model, home, tcp)
+    p_home = matrix_to_pose(T_home)
+    poses, moves, ops = [p_home], ["movej"], ["home"]
+    approach = p_home + np.array([0.05, -0.08, -0.06, 0, 0, 0])
+    poses.append(approach)
+    moves.append("movej")
+    ops.append("approach")
+    for i in range(n_fold):
+        t = i / (n_fold - 1)
+        d = np.array([0.05 + 0.12 * np.sin(np.pi * t), -0.08 + 0.16 * t, -0.06 + 0.03 * np.sin(2 * np.pi * t),
+                      0, 0, 0])
+        T = pose_to_matrix(p_home + d)
+        # tilt the tool a little along the curve (the fold rotates the gripped face)
+        c, s = np.cos(0.2 * t), np.sin(0.2 * t)
+        T[:3, :3] = T[:3, :3] @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+        poses.append(matrix_to_pose(T))
+        moves.append("movel")
+        ops.append("fold")
+    retract = poses[-1] + np.array([0, 0, 0.05, 0, 0, 0])
+    poses += [retract, p_home]
+    moves += ["movel", "movej"]
+    ops += ["retract", "home"]
+    P = np.array(poses)
+    stops = np.array([m == "movej" for m in moves])
+    stops[1] = stops[1 + n_fold] = True
+    r = blend_radii(P[:, :3], stops, r_max)
+    q_prev, wps = home, []
+    for i, (p, mv) in enumerate(zip(P, moves)):
+        sols = K.ik(model, pose_to_matrix(p), tcp)
+        q = K.select_nearest(sols, q_prev, model=model)
+        q_prev = q
+        lin = mv == "movel"
+        wps.append({"pose": [float(x) for x in p], "q": [float(x) for x in q], "move": mv,
+                    "v": 0.25 if lin else 1.05, "a": 1.2 if lin else 1.4, "r": float(r[i]), "state": 0,
+                    "op": ops[i]})
+    return Toolpath(robot=model.name, cell=cell.name, tcp=tuple(matrix_to_pose(tcp)), source={"test": "demo"},
+                    waypoints=tuple(wps))
+
+
+def check_report(tp) -> dict:
+    """The real MuJoCo check of `tp` in the ur5e_bench cell, as CHECK.json data."""
+    from robot.cell import load_cell, pose_to_matrix
+    from sim.check import Program, check_program
+
+    cell = load_cell(CELL)
+    wps = tp.waypoints
+    prog = Program(poses=np.array([pose_to_matrix(w["pose"]) for w in wps]), q=np.array([w["q"] for w in wps]),
+                   moves=tuple(w["move"] for w in wps), v=np.array([w["v"] for w in wps]),
+                   a=np.array([w["a"] for w in wps]), states=np.zeros(len(wps)), tcp=pose_to_matrix(tp.tcp),
+                   ops=tuple(w["op"] for w in wps), sha256=tp.sha256, r=np.array([w["r"] for w in wps]))
+    report, _ = check_program(prog, cell)
+    return report.to_json()
+
+
+def write_job(tmp: Path, tp, check: dict | None = None) -> tuple[Path, Path]:
+    path, chk = tmp / "PATH.json", tmp / "CHECK.json"
+    tp.save(path)
+    chk.write_text(json.dumps(check if check is not None else check_report(tp)))
+    return path, chk
+
+
+def run_fabkit(*args: str, timeout: float = 120.0, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "fabkit", *args], cwd=ROOT, capture_output=True, text=True,
+                          timeout=timeout, env={**os.environ, **(env or {})})
