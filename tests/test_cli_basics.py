@@ -90,3 +90,28 @@ def test_info_missing_file_and_report_directory(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "output directory does not exist" in err[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.obj"]
+
+
+def test_file_formats_readme_examples_run(tmp_path):
+    """The console examples in docs/readme/file-formats.md produce the output shown there."""
+    import re
+    import shlex
+
+    doc = (ROOT / "docs" / "readme" / "file-formats.md").read_text()
+    (tmp_path / "tests").symlink_to(ROOT / "tests")
+    blocks = re.findall(r"```console\n(.*?)```", doc, flags=re.S)
+    assert blocks
+    checked = 0
+    for block in blocks:
+        for cmd, shown in re.findall(r"^\$ (.*)\n((?:(?!\$ ).*\n)*)", block, flags=re.M):
+            argv = shlex.split(cmd)
+            assert argv[0] == "fabkit"
+            r = subprocess.run([sys.executable, "-m", "fabkit", *argv[1:]], capture_output=True, text=True,
+                               timeout=120, cwd=tmp_path)
+            out = (r.stdout + r.stderr).splitlines()
+            for line in shown.splitlines():
+                if line.strip() == "..." or re.search(r"\de-1\d", line):  # floating-point noise is not pinned
+                    continue
+                assert line in out, (cmd, line, out)
+                checked += 1
+    assert checked >= 8
