@@ -557,3 +557,75 @@ def check_program(prog: Program, cell, panel: PanelModel | None = None,
         clearance_window_m=float(names.margins["environment_m"]), cell=cell.name, robot=model.name,
         panel_faces=0 if panel is None else len(panel.pieces), notes=tuple(notes))
     return report, dense
+
+
+# ---- toolpaths (PATH.json) ---------------------------------------------------------------------
+
+def program_from_toolpath(tp, cell) -> Program:
+    """Arrays of a `robot.toolpath.Toolpath` for `cell`; `InputError` if it was planned for another
+    robot model or another TCP (checking it here would check the wrong machine)."""
+    from fabkit.errors import InputError
+    from robot.cell import pose_to_matrix
+
+    if tp.robot != cell.model.name:
+        raise InputError(f"toolpath is for a {tp.robot}, the cell {cell.name!r} has a {cell.model.name}",
+                         source=cell.source)
+    tcp = pose_to_matrix(tp.tcp)
+    if not np.allclose(tcp, cell.tool.tcp, atol=1e-9):
+        raise InputError(f"toolpath TCP {list(np.round(tp.tcp, 6))} differs from the cell's tool TCP "
+                         "(planned for another tool)", source=cell.source)
+    W = tp.waypoints
+    poses = np.array([pose_to_matrix(w["pose"]) for w in W])
+    grip = tp.extra.get("grip", {}) if isinstance(tp.extra, dict) else {}
+    dwell = np.array([float(grip.get("grip_dwell_s", 0.0)) if w["op"] == "grip" else
+                      float(grip.get("release_dwell_s", 0.0)) if w["op"] == "release" else 0.0 for w in W])
+    return Program(poses=poses, q=np.array([w["q"] for w in W], dtype=np.float64).reshape(-1, 6),
+                   moves=tuple(w["move"] for w in W), v=np.array([w["v"] for w in W], dtype=np.float64),
+                   a=np.array([w["a"] for w in W], dtype=np.float64),
+                   states=np.array([w["state"] for w in W], dtype=np.float64), tcp=tcp,
+                   ops=tuple(w["op"] for w in W), sha256=tp.sha256,
+                   r=np.array([w["r"] for w in W], dtype=np.float64), dwell=dwell)
+
+
+def fold_file_of(tp, base_dir=None):
+    """The FOLD file a toolpath's `source` names (a string value ending in .fold), resolved against
+    `base_dir` (the PATH.json's folder) when relative; None if the source names none."""
+    from pathlib import Path
+
+    src = tp.source
+    values = [src] if isinstance(src, str) else list(src.values()) if isinstance(src, dict) else []
+    for v in values:
+        if isinstance(v, str) and v.lower().endswith(".fold"):
+            p = Path(v)
+            if not p.is_absolute() and base_dir is not None and (Path(base_dir) / p).exists():
+                return Path(base_dir) / p
+            return p
+    return None
+
+
+def grip_face_of(tp):
+    """The grip face id (polygon id) a toolpath names in `source` or its `grip` block, or None."""
+    for block in (tp.source if isinstance(tp.source, dict) else {}, tp.extra.get("grip", {}) or {}):
+        face = block.get("grip_face", block.get("face")) if isinstance(block, dict) else None
+        if isinstance(face, int) and not isinstance(face, bool) and face >= 0:
+            return face
+    return None
+
+
+def check_toolpath(path, cell, panel: PanelModel | None = None,
+                   settings: CheckSettings = CheckSettings()) -> CheckReport:
+    """Check a `robot.toolpath.Toolpath` (or a PATH.json path) in `cell` (contract entry point).
+
+    `panel`: the panel pieces and fold states; None = no panel geometry (noted in the report).
+    """
+    from robot.toolpath import Toolpath
+
+    tp = path if isinstance(path, Toolpath) else Toolpath.load(path)
+    prog = program_from_toolpath(tp, cell)
+    if panel is not None and len(prog) and prog.states.max() > panel.n_states - 1:
+        from fabkit.errors import InputError
+
+        raise InputError(f"waypoints use fold state {int(prog.states.max())} but the panel has "
+                         f"{panel.n_states} states", source=str(path) if not isinstance(path, Toolpath) else None)
+    report, _ = check_program(prog, cell, panel, settings)
+    return report

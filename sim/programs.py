@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 from robot import kinematics as kin
 from sim.check import Program
 
-__all__ = ["sweep_program", "program_from_poses"]
+__all__ = ["sweep_program", "program_from_poses", "toolpath_from_program"]
 
 
 def program_from_poses(cell, poses_world: np.ndarray, *, move: str = "movel", v: float = 0.1, a: float = 1.2,
@@ -51,3 +51,17 @@ def sweep_program(cell, n: int = 2000, *, height: float = 0.15, half_span=(0.12,
     T[:, :3, :3] = fixture[:3, :3] @ rot.as_matrix()
     T[:, :3, 3] = local @ fixture[:3, :3].T + fixture[:3, 3]
     return program_from_poses(cell, T, v=v, a=a)
+
+
+def toolpath_from_program(prog: Program, cell, *, source=None, op: str = "fold"):
+    """A `robot.toolpath.Toolpath` (PATH.json) carrying a program's waypoints, for the CLI."""
+    from robot.cell import matrix_to_pose
+    from robot.toolpath import Toolpath
+
+    r = np.zeros(len(prog)) if prog.r is None else prog.r
+    ops = prog.ops if prog.ops and all(o != "sweep" for o in prog.ops) else (op,) * len(prog)
+    waypoints = [{"pose": matrix_to_pose(prog.poses[i]).tolist(), "q": prog.q[i].tolist(), "move": prog.moves[i],
+                  "v": float(prog.v[i]), "a": float(prog.a[i]), "r": float(r[i]), "state": int(prog.states[i]),
+                  "op": ops[i]} for i in range(len(prog))]
+    return Toolpath(robot=cell.model.name, cell=cell.name, tcp=tuple(matrix_to_pose(cell.tool.tcp)),
+                    source=dict(source or {"generator": "sim.programs"}), waypoints=tuple(waypoints))

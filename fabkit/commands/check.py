@@ -1,0 +1,185 @@
+"""`fabkit check PATH.json --cell CELL.toml -o CHECK.json`: the MuJoCo check of a robot program."""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from fabkit.commands._common import add_common, say, write_json, write_report
+from fabkit.errors import InputError
+
+HELP = """Check every waypoint of a toolpath and the motion between them in a MuJoCo model of the cell.
+
+The cell model is the UR arm built from its DH parameters with collision capsules, the tool, the
+obstacles and the panel (one thin convex piece per face, posed for each fold state; the FOLD file
+is the one the toolpath's source names, or --fold). Configurations are checked at least every 1 deg
+of joint motion and 5 mm of TCP travel, with the fold state interpolated alongside, for:
+reachability, joint limits, singularities, collisions (named pairs), clearance below the cell's
+limit, and joint speeds at the planned TCP speed. Writes CHECK.json (format fabkit.check/1) with
+the toolpath's sha256; exit 1 if there is any problem, 2 for bad input (including a PATH.json
+whose stored sha256 does not match its waypoints).
+
+Renders (offscreen, EGL or OSMesa): --render F.png draws waypoint K (default: the first problem,
+else 0) with an offending pair in red; --render F.mp4 plays the whole program.
+
+example:
+  fabkit check out/PATH.json --cell cells/ur5e_bench.toml -o out/CHECK.json --render out/check.png
+"""
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("toolpath", metavar="PATH.json", help="toolpath (fabkit.toolpath/1)")
+    parser.add_argument("--cell", required=True, metavar="CELL.toml", help="robot cell description")
+    parser.add_argument("-o", "--output", required=True, metavar="CHECK.json", help="check report to write")
+    parser.add_argument("--fold", metavar="SEQ.fold", help="fold states of the panel (default: the FOLD file "
+                        "the toolpath's source names)")
+    parser.add_argument("--no-panel", action="store_true", help="check against the cell's obstacles only")
+    parser.add_argument("--thickness", type=float, default=None, metavar="M",
+                        help="sheet thickness of the panel pieces in metres (default 0.001)")
+    parser.add_argument("--render", metavar="F.png|F.mp4", help="write a picture of one waypoint or a movie")
+    parser.add_argument("--waypoint", type=int, metavar="K", help="waypoint to render (PNG)")
+    parser.add_argument("--size", default="640x480", metavar="WxH", help="render size (default 640x480)")
+    parser.add_argument("--view", action="store_true", help="play the program in MuJoCo's viewer (needs a display)")
+    add_common(parser)
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise InputError(f"expected WIDTHxHEIGHT, got {text!r}", source="--size") from None
+    if not (16 <= w <= 1280 and 16 <= h <= 960):
+        raise InputError(f"{w}x{h} is outside 16x16 .. 1280x960", source="--size")
+    return w, h
+
+
+def run(args) -> int:
+    import os
+
+    render = Path(args.render) if args.render else None
+    if render is not None:
+        if render.suffix.lower() not in (".png", ".mp4"):
+            raise InputError("must end in .png or .mp4", source="--render")
+        if render.resolve() == Path(args.output).resolve():
+            raise InputError("would overwrite the check report", source="--render")
+        size = _size(args.size)
+        from sim.render import select_gl_backend  # before anything imports mujoco
+
+        if select_gl_backend() is None and not os.environ.get("DISPLAY"):
+            raise InputError("no offscreen OpenGL backend (install libegl1 libegl-mesa0 libgl1-mesa-dri, or "
+                             "libosmesa6 with MUJOCO_GL=osmesa)", source="--render")
+    if args.thickness is not None and not 0 < args.thickness < 0.05:
+        raise InputError(f"must be in (0, 0.05) m, got {args.thickness}", source="--thickness")
+    out = Path(args.output)
+    if not out.parent.is_dir():
+        raise InputError("output directory does not exist", source=str(out))
+    if out.resolve() == Path(args.toolpath).resolve():
+        raise InputError("would overwrite the toolpath", source=str(out))
+
+    from robot.cell import load_cell
+    from robot.toolpath import Toolpath
+    from sim.check import CheckSettings, check_program, fold_file_of, grip_face_of, program_from_toolpath
+
+    cell = load_cell(args.cell)
+    tp = Toolpath.load(args.toolpath)  # refuses a stored sha256 that does not match the waypoints
+    prog = program_from_toolpath(tp, cell)
+
+    panel, fold_path = None, None
+    if not args.no_panel:
+        fold_path = Path(args.fold) if args.fold else fold_file_of(tp, Path(args.toolpath).parent)
+        if fold_path is not None:
+            panel = _load_panel(fold_path, cell, grip_face_of(tp), args.thickness, prog)
+
+    t0 = time.perf_counter()
+    report, dense = check_program(prog, cell, panel, CheckSettings())
+    elapsed = time.perf_counter() - t0
+    write_json(out, report.to_json())
+
+    if not args.quiet:
+        _summary(args, report, elapsed, fold_path)
+    rendered = None
+    if render is not None:
+        rendered = _render(args, render, size, cell, panel, prog, dense, report)
+    write_report(args, {"command": "check", "toolpath": str(args.toolpath), "cell": str(args.cell),
+                        "fold": None if fold_path is None else str(fold_path), "output": str(out),
+                        "ok": report.ok, "problems": len(report.problems), "waypoints": report.waypoints,
+                        "configs_checked": report.configs_checked, "check_seconds": elapsed,
+                        "configs_per_second": report.configs_checked / elapsed if elapsed > 0 else None,
+                        "min_clearance_m": report.min_clearance_m, "cycle_time_s": report.cycle_time_s,
+                        "toolpath_sha256": report.toolpath_sha256, "render": rendered})
+    if args.view:
+        if not os.environ.get("DISPLAY"):
+            raise InputError("no display for the viewer (DISPLAY is not set)", source="--view")
+        from sim.model import build_cell_model
+        from sim.render import view
+
+        m, _ = build_cell_model(cell, panel)
+        view(m, cell, dense.q, panel=panel, states=dense.state, dt=dense.dt)
+    return 0 if report.ok else 1
+
+
+def _load_panel(fold_path: Path, cell, grip_face, thickness, prog):
+    from fabkit.io.fold import load_fold
+    from sim.panel import DEFAULT_THICKNESS, panel_from_fold
+
+    if not fold_path.exists():
+        raise InputError("FOLD file named by the toolpath's source not found (pass --fold or --no-panel)",
+                         source=str(fold_path))
+    model = load_fold(fold_path)
+    try:
+        panel = panel_from_fold(model, cell.fixture, grip_face_id=grip_face,
+                                thickness=thickness or DEFAULT_THICKNESS, source=str(fold_path))
+    except ValueError as exc:
+        raise InputError(str(exc), source=str(fold_path)) from None
+    top = int(prog.states.max()) if len(prog) else 0
+    if top > panel.n_states - 1:
+        raise InputError(f"the toolpath uses fold state {top} but the file has {panel.n_states} states",
+                         source=str(fold_path))
+    return panel
+
+
+def _summary(args, report, elapsed: float, fold_path) -> None:
+    clear = ("—" if report.min_clearance_m is None else
+             f"{report.min_clearance_m * 1e3:.1f} mm ({' × '.join(report.min_clearance_pair)})")
+    panel = f"panel {report.panel_faces} faces from {fold_path}" if report.panel_faces else "no panel"
+    head = "ok" if report.ok else f"{len(report.problems)} problem(s)"
+    say(args, f"check: {head} — {report.waypoints} waypoints, {report.configs_checked} configurations in "
+              f"{elapsed:.2f} s, {panel}, min clearance {clear}, cycle ≈ {report.cycle_time_s:.1f} s")
+    for p in report.problems[:20]:
+        say(args, f"  waypoint {p.waypoint}: {p.kind}: {p.detail}")
+    if len(report.problems) > 20:
+        say(args, f"  … {len(report.problems) - 20} more in {args.output}")
+
+
+def _render(args, path: Path, size, cell, panel, prog, dense, report) -> dict:
+    import numpy as np
+
+    from sim.model import build_cell_model
+    from sim.render import movie_indices, render_frames, write_mp4, write_png
+
+    m, _ = build_cell_model(cell, panel)
+    w, h = size
+    if path.suffix.lower() == ".png":
+        k = args.waypoint
+        highlight = ()
+        if k is None:
+            k = report.problems[0].waypoint if report.problems else 0
+        if not 0 <= k < len(prog):
+            raise InputError(f"waypoint {k} is outside 0..{len(prog) - 1}", source="--waypoint")
+        hits = np.flatnonzero(dense.at_waypoint & (dense.waypoint == k))
+        if len(hits) == 0:
+            raise InputError(f"waypoint {k} has no joint solution to draw", source="--waypoint")
+        j = int(hits[0])
+        for p in report.problems:
+            if p.waypoint == k and p.pair:
+                highlight = p.pair
+                break
+        frame = next(iter(render_frames(m, cell, dense.q[j:j + 1], panel=panel, states=dense.state[j:j + 1],
+                                        width=w, height=h, highlight=highlight)))
+        write_png(path, frame)
+        say(args, f"rendered waypoint {k} to {path}")
+        return {"path": str(path), "waypoint": k, "highlight": list(highlight)}
+    idx, speedup = movie_indices(dense.dt)
+    frames = render_frames(m, cell, dense.q[idx], panel=panel, states=dense.state[idx], width=w, height=h)
+    n = write_mp4(path, frames)
+    say(args, f"rendered {n} frames to {path} ({speedup:.1f}x real time)")
+    return {"path": str(path), "frames": n, "speedup": speedup}
