@@ -259,6 +259,15 @@ def _solve(model: URModel, T_flange: np.ndarray) -> np.ndarray:
     return np.array(sols, dtype=np.float64).reshape(-1, 6)
 
 
+def _rigid_inverse(T: np.ndarray) -> np.ndarray:
+    """Inverse of a rigid 4x4 transform."""
+    out = np.eye(4)
+    R = T[:3, :3]
+    out[:3, :3] = R.T
+    out[:3, 3] = -R.T @ T[:3, 3]
+    return out
+
+
 def _yaw(T: np.ndarray, eps: float) -> np.ndarray:
     c, s = np.cos(eps), np.sin(eps)
     Rz = np.array([[c, -s, 0.0, 0.0], [s, c, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
@@ -306,7 +315,7 @@ def ik(model: URModel | str, T, tcp=None) -> np.ndarray:
     T = np.asarray(T, dtype=np.float64)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
         raise ValueError(f"ik needs a finite 4x4 pose, got shape {T.shape}")
-    T_flange = T if tcp is None else T @ np.linalg.inv(np.asarray(tcp, dtype=np.float64))
+    T_flange = T if tcp is None else T @ _rigid_inverse(np.asarray(tcp, dtype=np.float64))
     with quiet_stdout():
         cands = [_solve(model, T_flange)]
         if len(cands[0]) < 8:

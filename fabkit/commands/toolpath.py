@@ -1,0 +1,123 @@
+"""fabkit toolpath: fold states -> TCP poses, joint solutions, motion parameters, URScript."""
+from __future__ import annotations
+
+import hashlib
+import math
+import sys
+from pathlib import Path
+
+from fabkit.commands._common import add_common, progress, say, write_report
+from fabkit.errors import InputError
+
+HELP = """Turn a fold sequence into a Universal Robots toolpath for one cell.
+
+The gripper holds one middle-row face (chosen automatically, or --grip-face) and follows its frame
+through every fold state: home -> approach (movej) -> grip (movel onto the face, gripper output on)
+-> fold (movel through the states, subdivided so no joint moves more than 5 deg between waypoints)
+-> release (gripper off) -> retract -> home. Every joint solution is verified by forward kinematics;
+one arm configuration (shoulder/elbow/wrist branch) is kept through all linear moves.
+
+Writes PATH.json (format fabkit.toolpath/1, with a sha256 over the waypoints) and, with --script,
+a URScript program (def ... end) with set_tcp, movej/movel with a/v/r, gripper outputs and progress
+in an output integer register.
+
+Exit codes: 0 ok; 1 the path is unreachable, singular or discontinuous (the message names the
+waypoint and the reason; nothing is written); 2 bad input.
+
+Example:
+  fabkit toolpath seq.fold --cell cells/ur5e_bench.toml -o path.json --script fold.script
+"""
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("fold", metavar="SEQ.fold", help="fold sequence (FOLD file with fold states as frames)")
+    parser.add_argument("--cell", required=True, metavar="CELL.toml", help="robot cell description")
+    parser.add_argument("-o", "--output", required=True, metavar="PATH.json", help="toolpath to write")
+    parser.add_argument("--script", metavar="PROG.script", help="also write the URScript program")
+    parser.add_argument("--grip-face", type=int, metavar="F", help="face id to grip (default: automatic)")
+    parser.add_argument("--approach", type=float, default=0.08, metavar="M",
+                        help="approach/retract distance in front of the face [m] (default 0.08)")
+    parser.add_argument("--standoff", type=float, default=0.0, metavar="M",
+                        help="TCP distance from the face when gripping [m] (default 0)")
+    parser.add_argument("--tool-yaw", type=float, default=None, metavar="DEG",
+                        help="turn of the tool about its axis [deg] (default: automatic for axial tools)")
+    parser.add_argument("--fold-speed", type=float, default=0.05, metavar="M/S",
+                        help="TCP speed while folding [m/s] (default 0.05, capped by the cell)")
+    parser.add_argument("--max-joint-step", type=float, default=5.0, metavar="DEG",
+                        help="largest joint change between fold waypoints [deg] (default 5)")
+    parser.add_argument("--progress-register", type=int, default=None, metavar="N",
+                        help="output integer register for progress in the program (default 3)")
+    add_common(parser)
+
+
+def _check_args(args) -> None:
+    if not (math.isfinite(args.approach) and 0.0 < args.approach <= 0.5):
+        raise InputError(f"{args.approach} m is not in (0, 0.5]", source="--approach")
+    if not (math.isfinite(args.standoff) and 0.0 <= args.standoff <= 0.1):
+        raise InputError(f"{args.standoff} m is not in [0, 0.1]", source="--standoff")
+    if not (math.isfinite(args.fold_speed) and args.fold_speed > 0):
+        raise InputError(f"{args.fold_speed} m/s must be > 0", source="--fold-speed")
+    if not (math.isfinite(args.max_joint_step) and 0.1 <= args.max_joint_step <= 30):
+        raise InputError(f"{args.max_joint_step} deg is not in [0.1, 30]", source="--max-joint-step")
+    if args.tool_yaw is not None and not math.isfinite(args.tool_yaw):
+        raise InputError("must be a finite angle", source="--tool-yaw")
+    if args.progress_register is not None and not 0 <= args.progress_register <= 47:
+        raise InputError(f"{args.progress_register} is outside 0..47", source="--progress-register")
+    if args.output and args.script and Path(args.output).resolve() == Path(args.script).resolve():
+        raise InputError("the program and the toolpath would overwrite each other", source="--script")
+
+
+def run(args) -> int:
+    from dataclasses import replace
+
+    from fabkit.frames import middle_row_frames
+    from fabkit.io.atomic import atomic_write
+    from fabkit.io.fold import load_fold
+    from robot.cell import load_cell
+    from robot.motion import MotionParams
+    from robot.toolpath import PlanningError, PlanOptions, plan_panel
+    from robot.urscript import PROGRESS_REGISTER, write_urscript
+
+    _check_args(args)
+    cell = load_cell(args.cell)
+    model = load_fold(args.fold)
+    if model.n_frames == 0:
+        raise InputError("has no fold states (no file_frames)", source=args.fold)
+    frames = middle_row_frames(model, source=args.fold)
+    digest = hashlib.sha256(Path(args.fold).read_bytes()).hexdigest()
+    source = {"file": Path(args.fold).name, "sha256": digest, "states": int(frames.n_states)}
+    options = PlanOptions(approach_distance=args.approach, grip_standoff=args.standoff,
+                          tool_yaw=None if args.tool_yaw is None else math.radians(args.tool_yaw),
+                          max_joint_step=math.radians(args.max_joint_step),
+                          params=replace(MotionParams(), fold_speed=args.fold_speed))
+    report = {"command": "toolpath", "input": args.fold, "cell": cell.name, "robot": cell.model.name,
+              "states": int(frames.n_states), "middle_row": frames.faces.tolist()}
+    with progress(args, "planning", total=None):
+        try:
+            res = plan_panel(cell, frames, grip_face=args.grip_face, options=options, source=source)
+        except PlanningError as exc:
+            print(f"fabkit toolpath: {args.fold}: {exc}", file=sys.stderr)
+            write_report(args, {**report, "ok": False, "problems": [exc.as_problem()]})
+            return 1
+    tp = res.toolpath
+    script = None
+    if args.script:
+        reg = PROGRESS_REGISTER if args.progress_register is None else args.progress_register
+        script = write_urscript(tp, program_name=f"fold_{cell.name}", progress_register=reg)
+    tp.save(args.output)
+    if script is not None:
+        with atomic_write(args.script) as fh:
+            fh.write(script)
+    checks = tp.extra["checks"]
+    report.update({"ok": True, "output": args.output, "script": args.script, "toolpath_sha256": tp.sha256,
+                   "waypoints": len(tp), "grip_face": res.grip_face, "branch": res.branch,
+                   "cycle_time_s": res.cycle_time, "max_fold_joint_step_deg": math.degrees(checks["max_fold_joint_step_rad"]),
+                   "joint_speed_ratio": res.joint_speed_ratio, "min_singularity": res.min_singularity,
+                   "faces_tried": [{"face": f, "problem": str(e)} for f, e in res.tried], "problems": []})
+    write_report(args, report)
+    say(args, f"{args.output}: {len(tp)} waypoints for {cell.model.name} in {cell.name}, grip face {res.grip_face} "
+              f"({res.branch}), cycle time ~{res.cycle_time:.1f} s, largest fold step "
+              f"{math.degrees(checks['max_fold_joint_step_rad']):.2f} deg, sha256 {tp.sha256[:12]}")
+    if args.script:
+        say(args, f"{args.script}: URScript program")
+    return 0
