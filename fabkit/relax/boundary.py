@@ -34,11 +34,12 @@ def _unit(a: np.ndarray) -> np.ndarray:
     return a / np.where(n > 0, n, 1.0)
 
 
-def add_boundary_row(mesh: PolyMesh, kind: str, width: float = 1.0) -> ExtendedMesh:
+def add_boundary_row(mesh: PolyMesh, kind: str, width: float = 1.0, tilt: float = np.pi / 4) -> ExtendedMesh:
     """Mesh with one extra quad per boundary edge; outer vertices offset by `width` × mean boundary edge.
 
     kind: "row-in-plane" (offset along the outward in-plane direction, the bisector at corners),
-    "row-out" (along the vertex normal, the front side), "row-in" (against it).
+    "row-out" (along the vertex normal, the front side, leaning outward by `tilt` rad), "row-in" (the
+    back side, same lean). tilt = 0 extrudes exactly along the normal.
     """
     if kind not in ROW_KINDS:
         raise ValueError(f"row kind must be one of {', '.join(ROW_KINDS)}, got {kind!r}")
@@ -66,10 +67,11 @@ def add_boundary_row(mesh: PolyMesh, kind: str, width: float = 1.0) -> ExtendedM
     new_id[bverts] = n + np.arange(len(bverts))
     if kind == "row-in-plane":
         offset = out_v[bverts]
-    elif kind == "row-out":
-        offset = vn[bverts]
     else:
-        offset = -vn[bverts]
+        # extruded: along the vertex normal (front side for "out"), leaning outward by `tilt` so the
+        # row's angles at panel corners stay near what the corner needs (pure normals leave π/2 there)
+        sign = 1.0 if kind == "row-out" else -1.0
+        offset = _unit(np.cos(tilt) * sign * vn[bverts] + np.sin(tilt) * out_v[bverts])
     newV = V[bverts] + h * offset
     # outer quad for boundary edge a -> b: (b, a, a', b') runs b -> a, opposite to the inner face
     new_faces = np.stack([b, a, new_id[a], new_id[b]], axis=1)

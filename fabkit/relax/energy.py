@@ -108,7 +108,8 @@ class EnergyModel:
 
     def __init__(self, topology: MeshTopology, *, defect_mask: np.ndarray, free_mask: np.ndarray,
                  planarity_weight: float = 1.0, plane_method: str = "cross", length_scale: float = 1.0,
-                 closeness_weight: float = 0.0, x_ref: np.ndarray | None = None):
+                 closeness_weight: float = 0.0, x_ref: np.ndarray | None = None,
+                 planarity_mask: np.ndarray | None = None):
         if plane_method not in PLANE_METHODS:
             raise ValueError(f"unknown plane method {plane_method!r} (cross or covariance)")
         if not (length_scale > 0 and np.isfinite(length_scale)):
@@ -138,11 +139,14 @@ class EnergyModel:
         self._dc_row = row_of_vertex[fi[dc]]
         self._dc_verts = np.stack([fi[dc], fi[t.corner_next[dc]], fi[t.corner_prev[dc]]], axis=1)  # here, next, prev
         sizes = t.face_sizes
+        pmask = np.ones(t.n_faces, bool) if planarity_mask is None else np.asarray(planarity_mask, dtype=bool)
         self.groups: list[_FaceGroup] = []
         for k in np.unique(sizes):
             if k < 4:
                 continue
-            ids = np.flatnonzero(sizes == k)
+            ids = np.flatnonzero((sizes == k) & pmask)
+            if len(ids) == 0:
+                continue
             faces = np.stack([fi[t.face_offsets[ids] + j] for j in range(k)], axis=1)
             self.groups.append(_FaceGroup(faces, ids))
         self.n_faces = t.n_faces

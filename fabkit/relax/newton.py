@@ -46,7 +46,7 @@ def _solve_spd(A: sp.csr_matrix, b: np.ndarray) -> np.ndarray | None:
 def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Callable[[Evaluation], bool],
                  x_ref: np.ndarray | None = None, closeness: float = 0.0,
                  record: Callable[[str, Evaluation, float], None] | None = None,
-                 deadline: float | None = None, gamma: float = 100.0, mu_min: float = 1e-15, radius0: float = 0.05,
+                 deadline: float | None = None, gamma: float = 100.0, mu_min: float = 1e-15, mu_max: float = 1e-2, radius0: float = 0.05,
                  max_failures: int = 12) -> PhaseOutcome:
     """Damped Gauss–Newton iterations from X0 until `done` holds (see module docstring).
 
@@ -71,7 +71,7 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
     for it in range(1, max_iter + 1):
         phi = float(r @ r)
         # Levenberg parameter ~ ‖r‖² (Yamashita–Fukushima): damped far out, pure Gauss–Newton near the end
-        mu_rel = max(gamma * float(np.abs(r).max()) ** 2, mu_min) * boost
+        mu_rel = min(max(gamma * float(np.abs(r).max()) ** 2, mu_min), mu_max) * boost
         JJt = (J @ J.T).tocsr()
         diag_scale = max(float(JJt.diagonal().mean()) if JJt.shape[0] else 1.0, 1e-300)
         eye = sp.identity(JJt.shape[0], format="csr")

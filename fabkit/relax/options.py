@@ -33,6 +33,8 @@ class RelaxOptions:
     finish: hand over to Gauss–Newton (dr, lbfgs) once both measures are below `finish_below` or
         progress stalls. max_iter bounds DR / L-BFGS iterations, newton_max_iter the Newton steps.
     max_seconds: optional wall-clock budget (None: unlimited).
+    fallback: when the chosen route misses the tolerances, try the other one (Gauss–Newton from the
+        input after DR / L-BFGS; DR + finish after Newton) and keep the better result.
     """
 
     method: str = "dr"
@@ -53,6 +55,7 @@ class RelaxOptions:
     finish: bool = True
     finish_below: float = 1e-3
     max_seconds: float | None = None
+    fallback: bool = True
 
     def __post_init__(self):
         if self.method not in METHODS:

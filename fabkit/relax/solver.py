@@ -68,7 +68,10 @@ class Relaxer:
             fixed_all = np.concatenate([fixed_mask, np.zeros(pmesh.n_vertices - mesh.n_vertices, bool)])
             free = pmesh.topology.used_vertex_mask & ~row & ~fixed_all
             defect = pmesh.interior_vertex_mask.copy()
+            # the row only steers the angle sums; its own faces need not be planar (they are removed)
+            plan = np.arange(pmesh.n_faces) < mesh.n_faces
         else:
+            plan = None
             pmesh = mesh
             free = t.used_vertex_mask & ~fixed_mask
             if options.boundary == "fixed":
@@ -81,7 +84,7 @@ class Relaxer:
         self.model = EnergyModel(pmesh.topology, defect_mask=defect, free_mask=free,
                                  planarity_weight=options.planarity_weight, plane_method=options.plane_method,
                                  length_scale=self.length_scale, closeness_weight=options.closeness,
-                                 x_ref=self.x_ref)
+                                 x_ref=self.x_ref, planarity_mask=plan)
 
     # ------------------------------------------------------------------------------------------
     def _problem_positions(self, X0) -> np.ndarray:
@@ -149,17 +152,40 @@ class Relaxer:
                             deadline=deadline)
                 statuses.append(f"L-BFGS {out.status}")
             if o.method == "newton" or (o.finish and out.status in ("switch", "stalled", "max_iter")):
-                start = out.X if o.method != "newton" else X
-                if o.method != "newton" and out.status == "diverged":
-                    start = X
-                nt = gauss_newton(self.model, start, max_iter=int(o.newton_max_iter), done=self._done,
-                                  x_ref=self.x_ref, closeness=o.closeness, record=record, deadline=deadline)
+                start = X if (o.method == "newton" or out.status == "diverged") else out.X
+                nt = self._newton(start, record, deadline)
                 statuses.append(f"Newton {nt.status}")
-                out = nt if (nt.evaluation.finite and (nt.status == "converged" or
-                                                        out.status == "start" or
-                                                        nt.evaluation.energy <= out.evaluation.energy
-                                                        or not out.evaluation.finite)) else out
+                out = self._better(out, nt)
+            if o.fallback and not self._done(out.evaluation) and out.status != "timeout":
+                # the first route went astray (fold-over, stall): try the other one from the input
+                if o.method == "newton":
+                    alt = dynamic_relaxation(self.model, X, max_iter=int(o.max_iter), done=self._done,
+                                             switch=finish_switch, damping=o.damping, record=record,
+                                             deadline=deadline)
+                    statuses.append(f"fallback DR {alt.status}")
+                    if alt.status in ("switch", "stalled", "max_iter"):
+                        alt = self._newton(alt.X, record, deadline)
+                        statuses.append(f"Newton {alt.status}")
+                else:
+                    alt = self._newton(X, record, deadline)
+                    statuses.append(f"fallback Newton from the input {alt.status}")
+                out = self._better(out, alt)
         return self._result(out, history, counts, statuses, time.perf_counter() - t0)
+
+    def _newton(self, X: np.ndarray, record, deadline) -> PhaseOutcome:
+        o = self.options
+        return gauss_newton(self.model, X, max_iter=int(o.newton_max_iter), done=self._done, x_ref=self.x_ref,
+                            closeness=o.closeness, record=record, deadline=deadline)
+
+    def _better(self, a: PhaseOutcome, b: PhaseOutcome) -> PhaseOutcome:
+        """The converged one, else the finite one with the lower energy (a: the earlier outcome)."""
+        if not b.evaluation.finite:
+            return a
+        if a.status == "start" or not a.evaluation.finite:
+            return b
+        if self._done(b.evaluation) != self._done(a.evaluation):
+            return b if self._done(b.evaluation) else a
+        return b if b.evaluation.energy <= a.evaluation.energy else a
 
     # ------------------------------------------------------------------------------------------
     def _result(self, out: PhaseOutcome, history, counts, statuses, seconds) -> RelaxResult:

@@ -1,0 +1,119 @@
+"""`fabkit relax IN.obj -o OUT.obj`: dynamic relaxation toward zero angle defect and planar faces."""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+from fabkit.commands._common import add_common, progress, say, write_report
+from fabkit.errors import InputError
+
+HELP = """Relax a quad mesh toward a developable, planar-quad panel (paper §2.2-2.7): zero angle defect
+(2π − Σθ) at every interior vertex and every face vertex on its face's best-fit plane.
+
+Dynamic relaxation with kinetic damping does the bulk of the work; a damped minimum-norm
+Gauss–Newton finish takes the panel to round-off. OUT has IN's vertex order, faces and data.
+
+Exit codes: 0 converged; 1 did not converge (the measures reached are printed and reported; OUT is
+not written unless --write-unconverged); 2 bad input (non-manifold, NaN, a single face, no interior
+vertex) or bad options.
+
+examples:
+  fabkit relax panel.obj -o relaxed.obj --report relax.json
+  fabkit relax panel.obj -o relaxed.obj --boundary row-in-plane --tol-defect 1e-6
+  fabkit relax panel.obj -o relaxed.obj --method newton --closeness 1 --fixed 0,12
+"""
+
+
+def _ids(text: str) -> list[int]:
+    try:
+        return [int(t) for t in text.replace(" ", "").split(",") if t]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated vertex ids, got {text!r}") from None
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    from fabkit.relax.options import BOUNDARIES, METHODS, RelaxOptions
+
+    d = RelaxOptions()
+    p.add_argument("input", metavar="IN.obj", help="input mesh (OBJ, polygons)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.obj", help="relaxed mesh (OBJ)")
+    p.add_argument("--method", choices=METHODS, default=d.method,
+                   help="dr: dynamic relaxation + Gauss-Newton finish (default); newton: Gauss-Newton "
+                        "only; lbfgs: scipy L-BFGS + finish")
+    p.add_argument("--tol-defect", type=float, default=d.tol_defect, metavar="RAD",
+                   help=f"max |angle defect| at interior vertices [rad] (default {d.tol_defect:g})")
+    p.add_argument("--tol-planarity", type=float, default=d.tol_planarity, metavar="REL",
+                   help=f"max plane distance / mean face edge (default {d.tol_planarity:g})")
+    p.add_argument("--tol-force", type=float, default=d.tol_force, metavar="REL",
+                   help=f"max residual force |grad E| * mean edge (default {d.tol_force:g})")
+    p.add_argument("--max-iter", type=int, default=d.max_iter, help=f"DR / L-BFGS iterations (default {d.max_iter})")
+    p.add_argument("--newton-max-iter", type=int, default=d.newton_max_iter,
+                   help=f"Gauss-Newton steps (default {d.newton_max_iter})")
+    p.add_argument("--boundary", choices=BOUNDARIES, default=d.boundary,
+                   help="free (default): boundary vertices move under planarity and their interior "
+                        "neighbours' developability; fixed; row-*: an extra fixed row of faces (Fig. 9)")
+    p.add_argument("--row-width", type=float, default=d.row_width,
+                   help="width of the extra boundary row in mean boundary edges (default 1)")
+    p.add_argument("--fixed", type=_ids, default=[], metavar="I,J,..",
+                   help="vertex ids held fixed (vertex_data 'fixed' in the OBJ is honoured too)")
+    p.add_argument("--stage", action="store_true", help="developability first, then planarity (§2.7)")
+    p.add_argument("--stage-defect", type=float, default=d.stage_defect,
+                   help=f"stage-1 threshold on max |defect| (default {d.stage_defect:g})")
+    p.add_argument("--closeness", type=float, default=d.closeness,
+                   help="weight pulling toward the input positions (default 0)")
+    p.add_argument("--planarity-weight", type=float, default=d.planarity_weight,
+                   help=f"planarity weight w_p (default {d.planarity_weight:g})")
+    p.add_argument("--plane", choices=("cross", "covariance"), default=d.plane_method,
+                   help="best-fit plane: sum of corner cross products (default) or covariance eigenvector")
+    p.add_argument("--damping", type=float, default=d.damping, help="nominal DR velocity damping in [0,1)")
+    p.add_argument("--no-finish", action="store_true", help="no Gauss-Newton finish after DR / L-BFGS")
+    p.add_argument("--no-fallback", action="store_true", help="do not try the other route when the first fails")
+    p.add_argument("--max-seconds", type=float, default=None, help="wall-clock budget [s]")
+    p.add_argument("--write-unconverged", action="store_true",
+                   help="write OUT even when the tolerances are missed (exit code stays 1)")
+    add_common(p)
+
+
+def run(args) -> int:
+    from fabkit.io.obj import load_obj, save_obj
+    from fabkit.relax import Relaxer, RelaxOptions
+
+    mesh = load_obj(args.input)
+    try:
+        options = RelaxOptions(
+            method=args.method, tol_defect=args.tol_defect, tol_planarity=args.tol_planarity,
+            tol_force=args.tol_force, max_iter=args.max_iter, newton_max_iter=args.newton_max_iter,
+            boundary=args.boundary, row_width=args.row_width, fixed=tuple(args.fixed), stage=args.stage,
+            stage_defect=args.stage_defect, closeness=args.closeness, planarity_weight=args.planarity_weight,
+            plane_method=args.plane, damping=args.damping, finish=not args.no_finish,
+            fallback=not args.no_fallback, max_seconds=args.max_seconds)
+    except ValueError as exc:
+        raise InputError(str(exc), source="options") from None
+    solver = Relaxer(mesh, options, source=str(args.input))
+    with progress(args, f"relaxing {args.input}") as advance:
+        result = solver.solve()
+        advance(1)
+    written = result.converged or args.write_unconverged
+    if written:
+        save_obj(result.mesh, args.output)
+    report = {
+        "input": str(args.input),
+        "output": str(args.output) if written else None,
+        "input_summary": {"vertices": mesh.n_vertices, "faces": mesh.n_faces,
+                          "interior_vertices": int(mesh.interior_vertex_mask.sum())},
+        **result.to_report(),
+    }
+    report["options"] = dataclasses.asdict(options)
+    write_report(args, report)
+    phases = ", ".join(f"{k} {v}" for k, v in result.phase_iterations.items()) or "none needed"
+    summary = (f"max |angle defect| {result.max_defect:.3g} rad, max planarity {result.max_planarity:.3g}, "
+               f"moved max {result.max_displacement * 1e3:.3g} mm / mean {result.mean_displacement * 1e3:.3g} mm, "
+               f"{result.seconds:.2f} s ({phases})")
+    if result.converged:
+        say(args, f"relaxed {args.input} -> {args.output}: converged, {summary}")
+        return 0
+    import sys
+
+    note = "" if written else "; no output written (--write-unconverged keeps it)"
+    print(f"fabkit relax: {args.input}: {result.message}{note}", file=sys.stderr)
+    return 1
