@@ -47,7 +47,7 @@ from fabkit.mesh import PolyMesh
 
 __all__ = ["trifold_panel", "trifold_network", "strip_columns", "MAX_RESOLUTION"]
 
-MAX_RESOLUTION = 256  # columns; the whole network is subdivided, so keep this bounded
+MAX_RESOLUTION = 64  # columns; the whole network is subdivided (4 s at 64), so keep this bounded
 
 
 def _check(cond: bool, message: str) -> None:
@@ -145,7 +145,7 @@ def trifold_panel(length: float = 1.6, depth: float = 0.8, height: float | None 
     length, depth, height [m] > 0: the box of step a (x, y, z extents; height defaults to depth;
     the creases run along `length`); bevel in (0, 1/2): Conway bevel fraction (the panel is about
     ``bevel * length`` long); extrude [m] > 0: width of the outer strips, smaller than the holes
-    allow; resolution: at least this many columns (rounded up to a power of 2; 2..256).
+    allow; resolution: at least this many columns (rounded up to a power of 2; 2..64).
     Raises `InputError` for impossible values.
     """
     height = depth if height is None else height
