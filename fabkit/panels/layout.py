@@ -120,8 +120,7 @@ def layout_panels(surface: GridSurface, rows: int = 14, cols: int = 3, columns_p
             quads = _grid_quads(len(grid_rows) - 1, len(st) - 1)
             n_faces = len(quads)
             fd = {"column": np.tile(np.arange(len(st) - 1), len(grid_rows) - 1),
-                  "strip": np.zeros(n_faces, dtype=np.int64),
-                  "middle": np.zeros(n_faces, dtype=np.int64)}
+                  "row": np.repeat(np.arange(len(grid_rows) - 1), len(st) - 1)}
             mesh = PolyMesh(V, quads, face_data=fd)
             if np.dot(mesh.face_normal_sums.sum(axis=0), surface.mesh.face_normal_sums.sum(axis=0)) < 0:
                 mesh = PolyMesh(V, quads[:, ::-1], face_data=fd)

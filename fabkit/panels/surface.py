@@ -90,3 +90,58 @@ def subdivide_grid(lowpoly: PolyMesh, levels: int = 3) -> GridSurface:
     from fabkit.generate.subdivide import catmull_clark
 
     return grid_from_mesh(catmull_clark(lowpoly, levels), levels)
+
+
+def grid_from_topology(mesh: PolyMesh) -> tuple[np.ndarray, bool]:
+    """Structured `(nu, nv)` vertex-id grid of a quad mesh that is a topological rectangle.
+
+    The `u` (across) direction is the shorter side. Returns `(index, is_lowpoly)` where
+    `is_lowpoly` means the across direction has exactly 3 vertices (the §3.1 input). Raises
+    InputError when the mesh is not a rectangular quad grid.
+    """
+    t = mesh.topology
+    if not np.all(t.face_sizes == 4):
+        raise InputError("the surface must be a quad grid (all faces quads)")
+    if len(t.boundary_loops) != 1:
+        raise InputError(f"the surface must be a single rectangular patch (it has {len(t.boundary_loops)} boundary loops)")
+    loop = t.boundary_loops[0]
+    faces_per_vertex = np.diff(t.vertex_faces[1])
+    corners = [i for i, v in enumerate(loop) if faces_per_vertex[v] == 1]
+    if len(corners) != 4:
+        raise InputError(f"the surface must be a rectangular quad grid (found {len(corners)} corners, need 4)")
+    # side A runs from corner 0 to corner 1; each next row lies across the quads beyond the last row
+    loop = np.roll(loop, -corners[0])
+    side_a = [int(v) for v in loop[: corners[1] - corners[0] + 1]]
+    F = t.face_array
+    edge_faces: dict[tuple[int, int], list[int]] = {}
+    for f, q in enumerate(F.tolist()):
+        for k in range(4):
+            a, b = q[k], q[(k + 1) % 4]
+            edge_faces.setdefault((min(a, b), max(a, b)), []).append(f)
+    rows = [side_a]
+    used_faces: set[int] = set()
+    while len(rows) * len(side_a) < mesh.n_vertices:
+        prev = rows[-1]
+        nxt: list[int] = []
+        for a, b in zip(prev[:-1], prev[1:]):
+            cand = [f for f in edge_faces.get((min(a, b), max(a, b)), []) if f not in used_faces]
+            if len(cand) != 1:
+                raise InputError("the surface is not a rectangular quad grid (cannot follow its rows)")
+            q = F[cand[0]].tolist()
+            used_faces.add(cand[0])
+            ia, ib = q.index(a), q.index(b)
+            step = 1 if (ia + 1) % 4 == ib else -1  # direction a -> b around the quad
+            c_a = q[(ia - step) % 4]  # neighbour of a that is not b
+            c_b = q[(ib + step) % 4]
+            if not nxt:
+                nxt.append(c_a)
+            elif nxt[-1] != c_a:
+                raise InputError("the surface is not a rectangular quad grid (rows do not line up)")
+            nxt.append(c_b)
+        rows.append(nxt)
+    index = np.array(rows, dtype=np.int64).T  # (len side_a, n rows)
+    if index.size != mesh.n_vertices or len(np.unique(index)) != mesh.n_vertices:
+        raise InputError("the surface is not a complete rectangular quad grid")
+    if index.shape[0] > index.shape[1]:
+        index = index.T
+    return index, index.shape[0] == 3

@@ -1,0 +1,105 @@
+"""`fabkit panels`: the multi-panel workflow (paper §3) with automatic feedback and symmetry (§4)."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from fabkit.commands._common import add_common, progress, say, write_report
+from fabkit.errors import InputError
+
+HELP = """Panelise a surface and make every panel fabricable: subdivide the low-poly (Catmull-Clark), extract
+its planar arcs, lay out staggered panels between neighbouring arcs, relax each panel with the
+four-panel corners (singularity points) fixed, unfold, measure shared-edge congruency, merge
+incongruent edges into target lengths and unfold again until the tolerances hold (automatic
+feedback) or --max-rounds is reached.
+
+SURFACE.obj is a quad grid that is one rectangular patch. When its across direction has exactly 3
+vertices it is the paper's low-poly and is subdivided --levels times; otherwise it is used as the
+high-resolution grid. `fabkit generate canopy -o canopy.obj` writes the preset wave-like canopy.
+
+Writes DIR/panels/<name>.{obj,_flat.obj,fold,dxf,svg}, DIR/band_layout.json, plots and
+DIR/report.json. Exit 1 when a panel or a shared edge misses its tolerance (the report says which
+and why).
+
+example:
+  fabkit generate canopy -o canopy.obj
+  fabkit panels canopy.obj -o canopy-panels --rows 14 --cols 7 --jobs 2
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("surface", metavar="SURFACE.obj", help="quad-grid surface (low-poly with 3 vertices across, or high-res)")
+    p.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--rows", type=int, default=14, help="bands between arcs, an even number (default 14)")
+    p.add_argument("--cols", type=int, default=7, help="panels per aligned band (default 7)")
+    p.add_argument("--columns-per-panel", type=int, default=6, help="mesh columns per panel, even (default 6)")
+    p.add_argument("--levels", type=int, default=4, help="Catmull-Clark levels for a low-poly input (default 4)")
+    p.add_argument("--tolerance", type=float, default=1e-4, help="max shared-edge incongruency, relative (default 1e-4)")
+    p.add_argument("--unfold-tolerance", type=float, default=1e-3,
+                   help="max unfold deviation per panel, relative (default 1e-3)")
+    p.add_argument("--max-rounds", type=int, default=12, help="feedback rounds after the first unfold (default 12)")
+    p.add_argument("--symmetric", action="store_true", help="solve half (x < 0) and mirror: exactly symmetric result")
+    p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1: in-process)")
+    p.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address (instead of --jobs)")
+    p.add_argument("--no-cut-files", action="store_true", help="skip the DXF/SVG cut files")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    add_common(p)
+
+
+def load_surface(path: str, levels: int):
+    """A GridSurface from an OBJ quad grid (subdivided when it is a 3-vertex-across low-poly)."""
+    import numpy as np
+
+    from fabkit.io.obj import load_obj
+    from fabkit.panels.surface import GridSurface, grid_from_topology, subdivide_grid
+
+    mesh = load_obj(path)
+    try:
+        index, lowpoly = grid_from_topology(mesh)
+    except InputError as exc:
+        raise exc.with_source(path)
+    if lowpoly:
+        nu, nv = index.shape
+        grid = np.zeros((mesh.n_vertices, 2))
+        grid[index.ravel()] = np.stack(np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij"), axis=-1).reshape(-1, 2)
+        if levels < 1:
+            raise InputError("a 3-vertex-across low-poly needs --levels >= 1", source=path)
+        return subdivide_grid(mesh.with_data(vertex_data={"grid": grid}), levels), True
+    return GridSurface(points=mesh.vertices[index], mesh=mesh, index=index), False
+
+
+def run(args) -> int:
+    from fabkit.panels.layout import layout_panels
+    from fabkit.panels.output import write_run
+    from fabkit.panels.workflow import PanelsOptions, run_panels
+
+    if not Path(args.surface).is_file():
+        raise InputError("no such file", source=args.surface)
+    if args.jobs < 1:
+        raise InputError(f"--jobs must be >= 1, got {args.jobs}")
+    if not (args.tolerance > 0 and args.unfold_tolerance > 0):
+        raise InputError("tolerances must be positive")
+    if args.max_rounds < 0:
+        raise InputError(f"--max-rounds must be >= 0, got {args.max_rounds}")
+    surface, lowpoly = load_surface(args.surface, args.levels)
+    layout = layout_panels(surface, rows=args.rows, cols=args.cols, columns_per_panel=args.columns_per_panel)
+    options = PanelsOptions(tol_congruency=args.tolerance, tol_unfold=args.unfold_tolerance,
+                            max_rounds=args.max_rounds, symmetric=args.symmetric)
+    n_tasks = len(layout.panels) // (2 if args.symmetric else 1)
+    with progress(args, "panels", total=n_tasks * (1 + args.max_rounds)) as advance:
+        result = run_panels(layout, options, jobs=args.jobs, scheduler=args.scheduler, progress=advance)
+    report = write_run(result, args.out, plots=not args.no_plots, cut_files=not args.no_cut_files)
+    report["input"] = {"surface": args.surface, "lowpoly": lowpoly, "levels": args.levels if lowpoly else 0}
+    write_report(args, report)
+    last = result.rounds[-1]
+    say(args, f"{len(layout.panels)} panels in {len(layout.arcs) - 1} bands, {len(layout.singular_keys)} "
+              f"singularity points ({layout.singularity_ratio:.3f} per panel; paper: 1/2)")
+    say(args, f"relax converged {report['relax_converged']}/{len(layout.panels)}; after {last['round']} feedback "
+              f"rounds: max incongruency {last['max_incongruency']:.3g} (tol {args.tolerance:g}), max unfold "
+              f"deviation {last['max_unfold_deviation']:.3g} (tol {args.unfold_tolerance:g})")
+    failing = result.failing_panels()
+    if failing:
+        say(args, f"{len(failing)} panels miss a tolerance, e.g. {layout.panels[failing[0][0]].name}: {failing[0][1]}")
+        return 1
+    say(args, f"all panels within tolerance -> {args.out}")
+    return 0
