@@ -299,6 +299,9 @@ def _ik_near(model, T, tcp, q_ref, what: str) -> np.ndarray:
 def _plan_cart_run(model, tcp, q0, wps, dt):
     T0 = K.fk_tcp(model, q0, tcp)
     poses = np.array([w.pose for w in wps], dtype=np.float64)
+    for i, p in enumerate(poses):  # a target out of reach fails before the arm moves
+        if len(K.ik(model, pose_to_matrix(p), tcp)) == 0:
+            raise PlanError(f"movel: inverse kinematics found no solution for target {i} (pose out of reach)")
     pieces, length, begins, stops = _cart_run(T0[:3, 3], Rotation.from_matrix(T0[:3, :3]), poses,
                                [w.v for w in wps], [w.a for w in wps], [w.r for w in wps])
     if not pieces:
