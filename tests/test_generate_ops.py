@@ -245,3 +245,23 @@ def test_dissolve_edges_and_vertices():
     assert len(ring) == 8
     with pytest.raises(MeshError, match="loop"):
         dissolve_edges(gg, ring)
+
+
+def test_edge_loops_and_their_removal():
+    from fabkit.generate import catmull_clark, edge_loop, remove_edge_loops
+
+    g = grid(4, 3, 4.0, 3.0)
+    V, E = g.vertices, g.edges
+    on_x0 = [e for e, (a, b) in enumerate(E) if V[a, 0] == 0 and V[b, 0] == 0]
+    loop = edge_loop(g, on_x0[1])
+    assert sorted(loop.tolist()) == sorted(on_x0) and len(loop) == 3
+    m, old = remove_edge_loops(g, [on_x0[0]])
+    # the two middle columns merge: 3 columns x 3 rows of quads, x = 0 line gone
+    assert (m.n_faces, m.n_vertices) == (9, 16) and np.all(m.face_sizes == 4)
+    assert not np.any(m.vertices[:, 0] == 0)
+    assert np.isclose(m.face_areas.sum(), 12.0)
+    # on a closed quad mesh a loop stops at irregular vertices (the cube's old corners, valence 3)
+    c = catmull_clark(cube())
+    assert len(edge_loop(c, 0)) == 2
+    with pytest.raises(MeshError, match="boundary"):
+        remove_edge_loops(g, [0])

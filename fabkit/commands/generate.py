@@ -45,22 +45,25 @@ def _deg(x: float) -> float:
 
 
 def _build_reflect(p: dict):
+    """Reflect preset; fills the computed defaults into `p` (so the report shows what was built)."""
     from fabkit.generate.reflect import MirrorPlane, reflect_panel
 
     k = p["creases"]
     if k not in (1, 2):
         raise InputError(f"--creases must be 1 or 2, got {k}", source="preset reflect")
     width = p["width"]
-    planes = [MirrorPlane(p["offset"] if p["offset"] is not None else width / (2 if k == 1 else 4),
-                          _deg(p["fold"]), _deg(p["skew"]))]
-    if k == 2:
-        planes.append(MirrorPlane(p["offset2"] if p["offset2"] is not None else 3 * width / 5,
-                                  _deg(p["fold2"] if p["fold2"] is not None else -p["fold"]),
-                                  _deg(p["skew2"] if p["skew2"] is not None else p["skew"])))
-    else:
+    if k == 1:
         extra = [f"--{n}" for n in ("offset2", "fold2", "skew2") if p[n] is not None]
         if extra:
             raise InputError(f"{', '.join(extra)} need --creases 2", source="preset reflect")
+    if p["offset"] is None:
+        p["offset"] = width / (2 if k == 1 else 4)
+    planes = [MirrorPlane(p["offset"], _deg(p["fold"]), _deg(p["skew"]))]
+    if k == 2:
+        p["offset2"] = 3 * width / 5 if p["offset2"] is None else p["offset2"]
+        p["fold2"] = -p["fold"] if p["fold2"] is None else p["fold2"]
+        p["skew2"] = p["skew"] if p["skew2"] is None else p["skew2"]
+        planes.append(MirrorPlane(p["offset2"], _deg(p["fold2"]), _deg(p["skew2"])))
     return reflect_panel(radius=p["radius"], arc=_deg(p["arc"]), width=width, planes=planes,
                          columns=p["columns"], rows=p["rows"])
 
@@ -68,6 +71,7 @@ def _build_reflect(p: dict):
 def _build_trifold(p: dict):
     from fabkit.generate.trifold import trifold_panel
 
+    p["height"] = p["depth"] if p["height"] is None else p["height"]
     return trifold_panel(length=p["length"], depth=p["depth"], height=p["height"], bevel=p["bevel"],
                          extrude=p["extrude"], resolution=p["resolution"])
 

@@ -4,18 +4,20 @@
 - `trifold_panel`: the tri-fold panel of Fig. 3 (steps a–f), a relax input.
 - polyhedra (`box`, `cube`, `prism`, `tetrahedron`, `octahedron`, `grid`), Conway operators
   (`ambo`, `truncate`, `chamfer`, `bevel`), `catmull_clark`, and topology edits (`delete_faces`,
-  `inset_faces`, `extrude_border_edges`, `dissolve_edges`, `dissolve_vertices`, `compact`).
+  `inset_faces`, `extrude_border_edges`, `dissolve_edges`, `dissolve_vertices`, `edge_loop`,
+  `remove_edge_loops`, `compact`).
 """
 from fabkit.generate.conway import ambo, bevel, chamfer, truncate, vertex_rings
 from fabkit.generate.polyhedra import box, cube, grid, octahedron, prism, signed_volume, tetrahedron
 from fabkit.generate.reflect import MirrorPlane, grid_faces, reflect_panel
 from fabkit.generate.subdivide import catmull_clark, catmull_clark_operator, crease_edges_of
-from fabkit.generate.topology import (compact, delete_faces, dissolve_edges, dissolve_vertices,
-                                      extrude_border_edges, inset_faces)
+from fabkit.generate.topology import (compact, delete_faces, dissolve_edges, dissolve_vertices, edge_loop,
+                                      extrude_border_edges, inset_faces, remove_edge_loops)
 from fabkit.generate.trifold import strip_columns, trifold_network, trifold_panel
 
 __all__ = ["MirrorPlane", "grid_faces", "reflect_panel", "trifold_panel", "trifold_network", "strip_columns",
            "box", "cube", "grid", "octahedron", "prism", "signed_volume", "tetrahedron",
            "ambo", "bevel", "chamfer", "truncate", "vertex_rings",
            "catmull_clark", "catmull_clark_operator", "crease_edges_of",
-           "compact", "delete_faces", "dissolve_edges", "dissolve_vertices", "extrude_border_edges", "inset_faces"]
+           "compact", "delete_faces", "dissolve_edges", "dissolve_vertices", "edge_loop", "extrude_border_edges",
+           "inset_faces", "remove_edge_loops"]

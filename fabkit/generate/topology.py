@@ -16,7 +16,7 @@ from fabkit.errors import MeshError
 from fabkit.mesh import PolyMesh
 
 __all__ = ["compact", "delete_faces", "inset_faces", "extrude_border_edges", "dissolve_edges",
-           "dissolve_vertices", "boundary_halfedges"]
+           "dissolve_vertices", "boundary_halfedges", "edge_loop", "remove_edge_loops"]
 
 
 def _as_mask(sel, n: int, what: str) -> np.ndarray:
@@ -268,3 +268,69 @@ def dissolve_vertices(mesh: PolyMesh, vertices) -> tuple[PolyMesh, np.ndarray]:
             raise MeshError(f"dissolving these vertices leaves face {k} with {len(f)} vertices")
     sub = PolyMesh(mesh.vertices, faces, face_data=mesh.face_data, vertex_data=mesh.vertex_data, validate=False)
     return compact(sub)
+
+
+def edge_loop(mesh: PolyMesh, edge: int) -> np.ndarray:
+    """The quad-mesh edge loop through `edge`: ordered edge ids.
+
+    From each end, the loop continues through vertices with four edges and four quads to the edge
+    that shares no face with the incoming one; it stops at the boundary, at an irregular vertex or
+    when it closes.
+    """
+    top = mesh.topology
+    E = mesh.edges
+    if not 0 <= edge < mesh.n_edges:
+        raise ValueError(f"edge {edge} out of range 0..{mesh.n_edges - 1}")
+    vf_faces, vf_off = top.vertex_faces
+    by_vertex: dict[int, list[int]] = {}
+    for e, (a, b) in enumerate(E.tolist()):
+        by_vertex.setdefault(a, []).append(e)
+        by_vertex.setdefault(b, []).append(e)
+    sizes = top.face_sizes
+
+    def step(e: int, v: int) -> int:
+        es = by_vertex[v]
+        faces = vf_faces[vf_off[v]:vf_off[v + 1]]
+        if len(es) != 4 or len(faces) != 4 or np.any(sizes[faces] != 4) or top.boundary_vertex_mask[v]:
+            return -1
+        fe = set(int(f) for f in top.edge_faces[e] if f >= 0)
+        rest = [x for x in es if x != e and not (set(int(f) for f in top.edge_faces[x] if f >= 0) & fe)]
+        return rest[0] if len(rest) == 1 else -1
+
+    loop = [int(edge)]
+    closed = False
+    for direction in (1, 0):
+        e, v = int(edge), int(E[edge, direction])
+        for _ in range(mesh.n_edges):
+            nxt = step(e, v)
+            if nxt < 0:
+                break
+            if nxt == edge:
+                closed = True
+                break
+            (loop.append if direction == 1 else lambda x: loop.insert(0, x))(nxt)
+            v = int(E[nxt, 1] if E[nxt, 0] == v else E[nxt, 0])
+            e = nxt
+        if closed:
+            break
+    return np.array(loop, dtype=np.int64)
+
+
+def remove_edge_loops(mesh: PolyMesh, edges: Sequence[int]) -> tuple[PolyMesh, np.ndarray]:
+    """Remove the edge loops through the given edges and the vertices they leave with two edges.
+
+    The faces on both sides of each loop merge (a quad strip on each side becomes one strip), and
+    a vertex that had more than two edges before and two after is dissolved, so the rulings across
+    the removed loop become single edges. Returns `(mesh, old_vertex_ids)`.
+    """
+    top = mesh.topology
+    sel = np.zeros(mesh.n_edges, dtype=bool)
+    for e in edges:
+        sel[edge_loop(mesh, int(e))] = True
+    if np.any(sel & top.boundary_edge_mask):
+        raise MeshError("an edge loop to remove runs along the boundary")
+    before = top.vertex_valence
+    merged = dissolve_edges(mesh, sel)
+    after = merged.topology.vertex_valence
+    lone = np.flatnonzero((after == 2) & (before > 2))
+    return dissolve_vertices(merged, lone)
