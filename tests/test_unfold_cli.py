@@ -113,6 +113,8 @@ def test_bad_arguments_exit_2(tmp_path, panel, capsys):
     assert main(base + ["--max-error", "-1"]) == 2
     assert main(base + ["--max-error", "nan"]) == 2
     assert main(base + ["--crease-angle", "0"]) == 2
+    assert main(base + ["--norm", "1"]) == 2
+    assert main(base + ["--norm", "3", "--method", "conformal"]) == 2
     assert main(base + ["--dxf", str(tmp_path / "f.obj")]) == 2
     assert main(base + ["--svg", str(tmp_path / "missing" / "f.svg")]) == 2
     assert main(["unfold", str(panel), "-o", str(panel)]) == 2

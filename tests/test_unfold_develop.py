@@ -219,3 +219,17 @@ def test_development_arrays_are_read_only():
     dev = develop(mesh)
     with pytest.raises(ValueError):
         dev.uv[0, 0] = 1.0
+
+
+def test_higher_norm_trades_mean_for_max():
+    cap = sphere_cap()
+    l2 = develop(cap)
+    l4 = develop(cap, norm=4)
+    assert l4.converged and l4.n_flipped == 0
+    assert l4.max_relative_deviation < 0.9 * l2.max_relative_deviation
+    assert l4.mean_relative_deviation > l2.mean_relative_deviation
+    assert l4.details["norm"] == 4.0
+    mesh, uv = cone_strip()
+    assert_exact(develop(mesh, norm=4), uv)
+    with pytest.raises(InputError, match=">= 2"):
+        develop(cap, norm=1.5)

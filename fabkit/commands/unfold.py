@@ -36,6 +36,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--png", metavar="F.png", help="picture of the pattern coloured by length deviation")
     parser.add_argument("--method", choices=("isometric", "conformal", "authalic"), default="isometric",
                         help="development method (default: isometric)")
+    parser.add_argument("--norm", type=float, default=2.0, metavar="P",
+                        help="isometric only: minimise sum |relative deviation|^P; 2 (default) is the paper's "
+                             "least-squares spring energy, P > 2 lowers the max deviation for a slightly larger mean")
     parser.add_argument("--max-error", type=float, metavar="E",
                         help="fail (exit 1) when the max relative edge/diagonal length deviation exceeds E")
     parser.add_argument("--panel-id", metavar="ID", help="label written on the cut files (default: IN's name)")
@@ -50,6 +53,10 @@ def _check_args(args) -> None:
 
     if args.max_error is not None and not (math.isfinite(args.max_error) and args.max_error > 0):
         raise InputError(f"must be a positive number, got {args.max_error}", source="--max-error")
+    if not (math.isfinite(args.norm) and args.norm >= 2):
+        raise InputError(f"must be a number >= 2, got {args.norm}", source="--norm")
+    if args.norm != 2 and args.method != "isometric":
+        raise InputError("only the isometric method has a spring-energy exponent", source="--norm")
     if not (math.isfinite(args.crease_angle) and 0 < args.crease_angle < 180):
         raise InputError(f"must be in (0, 180) degrees, got {args.crease_angle}", source="--crease-angle")
     outputs = [p for p in (args.output, args.dxf, args.svg, args.png, args.report) if p]
@@ -80,7 +87,7 @@ def run(args) -> int:
     mesh = load_obj(args.input)
     with progress(args, f"unfolding ({args.method})", total=None):
         try:
-            dev = develop(mesh, method=args.method)
+            dev = develop(mesh, method=args.method, **({"norm": args.norm} if args.method == "isometric" else {}))
         except InputError as exc:
             raise exc.with_source(args.input) from None
     panel_id = args.panel_id if args.panel_id is not None else Path(args.input).stem

@@ -15,8 +15,9 @@ __all__ = ["plot_unfold_error"]
 def plot_unfold_error(mesh: PolyMesh, dev: Development, path: str | os.PathLike, *, title: str | None = None,
                       dpi: int = 110, log_scale: bool | None = None) -> None:
     """Write a PNG: faces in grey, every edge and diagonal coloured by |relative length deviation|,
-    with a colour bar and the mean/max in the title. A log colour scale is used when the deviations
-    span more than two decades (default), so round-off-level and percent-level panels both read."""
+    with a colour bar and the mean/max in the title. Diagonals are drawn thinner than edges. The
+    colour scale is linear from 0, or logarithmic when every deviation is below 1e-6 (an exactly
+    developable panel, where only round-off is left to show)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -32,13 +33,14 @@ def plot_unfold_error(mesh: PolyMesh, dev: Development, path: str | os.PathLike,
     lo = max(float(err.min()), 1e-17)
     hi = max(float(err.max()), lo * 10)
     if log_scale is None:
-        log_scale = hi / lo > 100
+        log_scale = hi < 1e-6
     norm = colors.LogNorm(vmin=lo, vmax=hi) if log_scale else colors.Normalize(vmin=0.0, vmax=hi)
     order = np.argsort(err)  # worst springs drawn last, on top
     fig = Figure(figsize=(7.0, 5.5))
     ax = fig.add_subplot()
     ax.add_collection(PolyCollection(polys, facecolors="0.92", edgecolors="none"))
-    lines = LineCollection(uv[segs[order]], cmap="viridis", norm=norm, linewidths=0.8)
+    widths = np.where(np.arange(len(segs)) < len(dev.edges), 1.1, 0.5)
+    lines = LineCollection(uv[segs[order]], cmap="viridis", norm=norm, linewidths=widths[order])
     lines.set_array(np.maximum(err[order], lo))
     ax.add_collection(lines)
     ax.autoscale_view()
