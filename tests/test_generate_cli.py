@@ -46,6 +46,7 @@ def test_reflect_two_creases_fine(tmp_path):
     ("cube", ["--subdivide", "2"], 96),
     ("prism", ["--sides", "5"], 7),
     ("grid", ["--nx", "3", "--ny", "4"], 12),
+    ("canopy", ["--stations", "5"], 8),
 ])
 def test_basic_presets(tmp_path, preset, extra, faces):
     out = tmp_path / f"{preset}.obj"
@@ -65,6 +66,8 @@ def test_basic_presets(tmp_path, preset, extra, faces):
     (["generate", "reflect", "--fold", "0"], "fold"),
     (["generate", "cube", "--radius", "1"], "has no parameter --radius"),
     (["generate", "prism", "--sides", "2"], "sides"),
+    (["generate", "canopy", "--stations", "2"], "stations"),
+    (["generate", "trifold", "--bevel", "0.7"], "bevel"),
     (["generate", "grid", "--nx", "100000", "--ny", "100000"], "lower the resolution"),
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys, argv, words):

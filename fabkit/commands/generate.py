@@ -21,6 +21,9 @@ Presets (parameters in brackets, defaults after '='; lengths in metres, angles i
            hole borders, Catmull-Clark with sharp creases, keep one edge band, retopologise)
            [length=1.6 depth=0.8 height=depth bevel=0.2 extrude=0.12 resolution=16]; the box is
            length x depth x height, the panel about bevel*length long, resolution = columns
+  canopy   the multi-panel workflow's wave-like canopy low-poly (3 vertices across: planar arcs
+           after Catmull-Clark; input of `fabkit panels`) [length=6 width=2.4 height=2.2 arch=0.5
+           wave=0.35 waves=2 stations=9 sweep=0.3]
   cube     a closed cube [size=1 subdivide=0]
   prism    a closed right prism over a regular polygon [sides=6 radius=0.5 height=1 subdivide=0]
   grid     a flat quad grid in z=0 [nx=10 ny=10 size_x=1 size_y=1]
@@ -76,6 +79,13 @@ def _build_trifold(p: dict):
                          extrude=p["extrude"], resolution=p["resolution"])
 
 
+def _build_canopy(p: dict):
+    from fabkit.panels.surface import canopy_lowpoly
+
+    return canopy_lowpoly(length=p["length"], width=p["width"], height=p["height"], arch=p["arch"], wave=p["wave"],
+                          waves=p["waves"], stations=p["stations"], sweep=p["sweep"])
+
+
 def _build_cube(p: dict):
     from fabkit.generate.polyhedra import cube
     from fabkit.generate.subdivide import catmull_clark
@@ -119,6 +129,16 @@ PRESETS: dict[str, tuple[Callable, dict[str, Param]]] = {
         "extrude": Param(float, 0.12, "width of the outer strips [m]", True),
         "resolution": Param(int, 16, "columns along the creases (rounded up to a power of 2)", True),
     }),
+    "canopy": (_build_canopy, {
+        "length": Param(float, 6.0, "canopy length along x [m]", True),
+        "width": Param(float, 2.4, "canopy width [m]", True),
+        "height": Param(float, 2.2, "ridge height [m]", True),
+        "arch": Param(float, 0.5, "extra rise of the ridge above the wave [m]"),
+        "wave": Param(float, 0.35, "amplitude of the ridge wave [m]"),
+        "waves": Param(int, 2, "wave periods along the canopy", True),
+        "stations": Param(int, 9, "low-poly vertices along the canopy (>= 3)", True),
+        "sweep": Param(float, 0.3, "sideways sweep of the ridge [m]"),
+    }),
     "cube": (_build_cube, {
         "size": Param(float, 1.0, "edge length [m]", True),
         "subdivide": Param(int, 0, "Catmull-Clark levels"),
@@ -143,13 +163,14 @@ MAX_FACES = 5_000_000  # refuse absurd resolutions before allocating them
 def add_arguments(parser) -> None:
     parser.add_argument("preset", metavar="PRESET", help=f"one of: {', '.join(PRESETS)}")
     parser.add_argument("-o", "--output", required=True, metavar="OUT.obj", help="output mesh (.obj keeps the tags)")
-    names: dict[str, str] = {}
+    names: dict[str, list[str]] = {}
     for preset, (_, params) in PRESETS.items():
         for name, spec in params.items():
-            names.setdefault(name, spec.help)
-    for name, text in names.items():
+            default = "" if spec.default is None else f", default {spec.default:g}"
+            names.setdefault(name, []).append(f"{preset}: {spec.help}{default}")
+    for name, texts in names.items():
         parser.add_argument(f"--{name.replace('_', '-')}", dest=f"p_{name}", metavar="VALUE", default=None,
-                            help=text)
+                            help="; ".join(texts))
     add_common(parser)
 
 
@@ -191,6 +212,8 @@ def _estimate_faces(preset: str, p: dict) -> int:
         return p["columns"] * p["rows"] * (p["creases"] + 1)
     if preset == "grid":
         return p["nx"] * p["ny"]
+    if preset == "canopy":
+        return 2 * p["stations"]
     if preset in ("cube", "prism"):
         base = 6 if preset == "cube" else 2 * p["sides"]
         return base * 4 ** min(p["subdivide"], 20)
