@@ -125,12 +125,10 @@ def bevel(mesh: PolyMesh, t: float = 1.0 / 3.0) -> PolyMesh:
     am = ambo(mesh)
     tr = truncate(am, t)
     # faces of tr: first one per ambo face (origin of that ambo face), then one per ambo vertex (= old edge)
-    n_am = am.n_faces
+    # truncate made one face per ambo face, then one per ambo vertex (every ambo vertex of a closed
+    # mesh has a full ring), and ambo vertex i is the old edge i
     origin = np.concatenate([am.face_data["origin"], np.full(am.n_vertices, ORIGIN_EDGE)])
     source = np.concatenate([am.face_data["source"], np.arange(am.n_vertices)])
-    origin = origin[: tr.n_faces]
-    source = source[: tr.n_faces]
-    assert tr.n_faces == n_am + am.n_vertices
     return tr.with_data(face_data={"origin": origin, "source": source})
 
 

@@ -222,16 +222,19 @@ def dissolve_edges(mesh: PolyMesh, edges) -> PolyMesh:
     # next surviving half-edge after c in the merged polygon: from the end vertex of c, rotate through
     # dissolved half-edges: next(c) if alive, else next(twin(next(c))) ...
     faces_out, fdata_parent = [], []
-    visited = np.zeros(len(idx), dtype=bool)
-    for g in np.unique(group):
-        members = np.flatnonzero(group == g)
-        cs = np.concatenate([np.arange(top.face_offsets[f], top.face_offsets[f + 1]) for f in members])
+    # corners grouped by merged face (one sort instead of a scan per group)
+    corner_group = group[top.corner_face]
+    order = np.argsort(corner_group, kind="stable")
+    roots, starts = np.unique(corner_group[order], return_index=True)
+    bounds = np.append(starts, len(order))
+    for k, g in enumerate(roots):
+        cs = order[bounds[k]:bounds[k + 1]]
+        members = np.unique(top.corner_face[cs])
         cs = cs[alive[cs]]
         start = int(cs[0])
         poly = []
         c = start
         for _ in range(len(cs) + 1):
-            visited[c] = True
             poly.append(int(idx[c]))
             d = int(nxt[c])
             for _ in range(len(idx)):
