@@ -10,14 +10,14 @@ from fabkit.mesh import PolyMesh
 
 
 def grid_panel(n_strips=3, n_columns=5, strip_width=0.2, length=0.5):
-    """Flat grid: columns along x (the crease direction), strips stacked along y, centred on the origin.
+    """Flat grid: columns along x (the crease direction), strips stacked along y, bounding box at the
+    origin (as `fabkit unfold` places flat patterns).
 
-    Vertex (i, j) = i * (n_strips + 1) + j at x = i * length / n_columns - length / 2,
-    y = j * strip_width - n_strips * strip_width / 2. Face (i, j) is strip j, column i; the middle
-    column is tagged middle.
+    Vertex (i, j) = i * (n_strips + 1) + j at x = i * length / n_columns, y = j * strip_width.
+    Face (i, j) is strip j, column i; the middle column is tagged middle.
     """
-    xs = np.linspace(-length / 2, length / 2, n_columns + 1)
-    ys = (np.arange(n_strips + 1) - n_strips / 2) * strip_width
+    xs = np.linspace(0.0, length, n_columns + 1)
+    ys = np.arange(n_strips + 1) * strip_width
     X, Y = np.meshgrid(xs, ys, indexing="ij")
     V = np.column_stack([X.ravel(), Y.ravel(), np.zeros(X.size)])
     m = n_strips + 1
@@ -38,7 +38,7 @@ def fold_positions(mesh, crease_angles, clamp_strip, strip_width):
     (valley +: the far side turns toward +z), strip `clamp_strip` fixed."""
     V = np.array(mesh.vertices)
     n_strips = len(crease_angles) + 1
-    ys = (np.arange(n_strips + 1) - n_strips / 2) * strip_width
+    ys = np.arange(n_strips + 1) * strip_width
     j_of = np.rint((V[:, 1] - ys[0]) / strip_width).astype(int)  # vertex level
     out = V.copy()
     # strips above the clamp: apply creases clamp+1..n outward; a vertex at level L > clamp is moved

@@ -45,7 +45,9 @@ def test_bench_values():
     assert cell.limits.joint_speed == (3.14159,) * 6 and cell.limits.clearance == 0.01
     # base turned 180 deg about z: base -x is world +x
     np.testing.assert_allclose(cell.robot.base_pose[:3, 0], [-1, 0, 0], atol=1e-15)
-    np.testing.assert_allclose(cell.panel_to_base[:3, 3], [-0.45, 0.0, 0.10], atol=1e-12)
+    np.testing.assert_allclose(cell.panel_to_base[:3, 3], [-0.75, 0.25, 0.30], atol=1e-12)
+    # panel point (0.25, 0.25) (the middle of a 0.5 m flat pattern) is 0.5 m in front of the base
+    np.testing.assert_allclose((cell.fixture @ [0.25, 0.25, 0, 1])[:3], [0.5, 0.0, 1.10], atol=1e-12)
 
 
 def test_pose_conversion_round_trip(rng):

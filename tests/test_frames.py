@@ -24,7 +24,7 @@ def test_flat_state_frames_are_axis_aligned():
     for k, T in enumerate(T0):
         np.testing.assert_allclose(T[:3, 2], [0, 0, 1], atol=1e-15)   # front normal
         np.testing.assert_allclose(T[:3, 0], [0, 1, 0], atol=1e-15)   # across the creases
-        np.testing.assert_allclose(T[:3, 3], [0.0, (k - 1) * 0.2, 0.0], atol=1e-15)
+        np.testing.assert_allclose(T[:3, 3], [0.25, (k + 0.5) * 0.2, 0.0], atol=1e-15)
     assert _is_rigid(ff.frames)
 
 
@@ -38,8 +38,8 @@ def test_folded_frames_match_the_rotation_about_the_crease(deg):
     np.testing.assert_allclose(T[2][:3, 2], [0, -np.sin(a), np.cos(a)], atol=1e-14)
     np.testing.assert_allclose(T[2][:3, 0], [0, np.cos(a), np.sin(a)], atol=1e-14)
     np.testing.assert_allclose(T[0][:3, 2], [0, np.sin(a), np.cos(a)], atol=1e-14)
-    # centroid of strip 2's face: crease at y = 0.1, half a strip (0.1 m) out along the turned strip
-    np.testing.assert_allclose(T[2][:3, 3], [0, 0.1 + 0.1 * np.cos(a), 0.1 * np.sin(a)], atol=1e-14)
+    # centroid of strip 2's face: crease at y = 0.4, half a strip (0.1 m) out along the turned strip
+    np.testing.assert_allclose(T[2][:3, 3], [0.25, 0.4 + 0.1 * np.cos(a), 0.1 * np.sin(a)], atol=1e-14)
     assert _is_rigid(T)
 
 

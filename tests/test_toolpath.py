@@ -273,9 +273,9 @@ def test_cli_writes_path_script_and_report(seq_file, tmp_path, capsys):
 
 
 def test_cli_unreachable_exits_1_and_writes_nothing(seq_file, tmp_path, capsys):
-    text = CELL_FILES[0].read_text().replace("pose = [0.45, 0.0, 0.90, 0.0, 0.0, 1.5707963267948966]",
-                                             "pose = [2.45, 0.0, 0.90, 0.0, 0.0, 1.5707963267948966]")
-    assert "2.45" in text
+    text = CELL_FILES[0].read_text().replace("pose = [0.75, -0.25, 1.10, 0.0, 0.0, 1.5707963267948966]",
+                                             "pose = [2.75, -0.25, 1.10, 0.0, 0.0, 1.5707963267948966]")
+    assert "2.75" in text
     far = tmp_path / "far.toml"
     far.write_text(text)
     out, report = tmp_path / "p.json", tmp_path / "r.json"
