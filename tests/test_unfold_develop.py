@@ -233,3 +233,24 @@ def test_higher_norm_trades_mean_for_max():
     assert_exact(develop(mesh, norm=4), uv)
     with pytest.raises(InputError, match=">= 2"):
         develop(cap, norm=1.5)
+
+
+def test_relaxed_panel_from_the_relax_stage_unfolds_nearly_exactly():
+    from fabkit.cutfiles import crease_assignment
+    from fabkit.generate import reflect_panel
+    from fabkit.relax import relax
+
+    panel = reflect_panel(columns=12, rows=3)
+    rng = np.random.default_rng(7)
+    noisy = panel.with_vertices(panel.vertices + rng.normal(scale=2e-3, size=panel.vertices.shape))
+    before = develop(noisy)
+    result = relax(noisy)
+    assert result.converged, result.message
+    after = develop(result.mesh)
+    assert after.converged and after.n_flipped == 0 and not after.outline_self_overlaps
+    # the relaxed panel is developable to the relax tolerances (1e-8 rad, 1e-8 planarity)
+    assert after.mean_relative_deviation < 1e-7 and after.max_relative_deviation < 1e-6
+    assert after.mean_relative_deviation < 1e-4 * before.mean_relative_deviation
+    # tags survive relaxation, so the creases still come from the strips
+    a = crease_assignment(result.mesh)
+    assert a.source.startswith("face_data") and len(a.edges_with("V")) == 12
