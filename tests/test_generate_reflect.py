@@ -156,3 +156,33 @@ def test_obj_round_trip_keeps_exactness(tmp_path):
     assert np.array_equal(back.vertex_data["uv"], m.vertex_data["uv"])
     assert np.abs(measures.interior_angle_defect(back)).max() <= 1e-12
     assert measures.face_planarity(back).max() <= 1e-12
+
+
+def test_random_valid_parameters_stay_exact():
+    """Seeded random sweep over valid parameters: exactness does not depend on the choice."""
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    @settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+    checked = []
+
+    @given(radius=st.floats(0.2, 2.0), arc_deg=st.floats(5.0, 90.0), fold_deg=st.floats(30.0, 170.0),
+           sign=st.sampled_from([-1, 1]), skew_deg=st.floats(-15.0, 15.0), columns=st.integers(1, 40),
+           rows=st.integers(1, 6), two=st.booleans())
+    def check(radius, arc_deg, fold_deg, sign, skew_deg, columns, rows, two):
+        width = 1.0
+        planes = [MirrorPlane(0.3, sign * fold_deg * DEG, skew_deg * DEG)]
+        if two:
+            planes.append(MirrorPlane(0.7, -sign * fold_deg * DEG, skew_deg * DEG))
+        try:
+            m = reflect_panel(radius=radius, arc=arc_deg * DEG, width=width, planes=planes, columns=columns, rows=rows)
+        except InputError as exc:
+            assert "meet or cross" in str(exc)  # the only refusal valid-looking values may get
+            return
+        if m.interior_vertex_mask.any():
+            assert np.abs(measures.interior_angle_defect(m)).max() <= 1e-12
+        assert measures.face_planarity(m).max() <= 1e-12
+        checked.append(1)
+
+    check()
+    assert len(checked) >= 20  # most drawn parameter sets are valid panels and were measured
