@@ -163,9 +163,9 @@ def test_random_valid_parameters_stay_exact():
     from hypothesis import HealthCheck, given, settings
     from hypothesis import strategies as st
 
-    @settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
     checked = []
 
+    @settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
     @given(radius=st.floats(0.2, 2.0), arc_deg=st.floats(5.0, 90.0), fold_deg=st.floats(30.0, 170.0),
            sign=st.sampled_from([-1, 1]), skew_deg=st.floats(-15.0, 15.0), columns=st.integers(1, 40),
            rows=st.integers(1, 6), two=st.booleans())
