@@ -69,6 +69,11 @@ class ControlScript:
 
     # ---- program interface -------------------------------------------------------------------
     def start(self) -> None:
+        """Called under the controller lock: the script's first cycle (up to its first sync())
+        writes ready in the same period in which the program becomes PLAYING."""
+        self.ctrl.log("textmsg: " + LOADED_MSG)
+        self._write_async(-1)  # reset_async_progress()
+        self._out_i(0, 1)  # signal_ready()
         self.running = True
         self._thread.start()
 
@@ -108,18 +113,17 @@ class ControlScript:
     # ---- main loop ---------------------------------------------------------------------------
     def _main(self) -> None:
         ctrl = self.ctrl
-        ctrl.log("textmsg: " + LOADED_MSG)
-        with ctrl.lock:
-            self._write_async(-1)  # reset_async_progress()
-            self._out_i(0, 1)  # signal_ready()
         executing = False
-        last = ctrl.tick_index
+        last, last_cmd = ctrl.tick_index, 0
         try:
             while not self._killed.is_set():
                 last = ctrl.wait_tick(last)
                 if self._killed.is_set():
                     break
                 cmd = self._i(0)
+                if cmd != last_cmd and cmd not in REALTIME:
+                    ctrl.log(f"rtde_control: command {cmd}")
+                last_cmd = cmd
                 if cmd in REALTIME:
                     self._process(cmd)
                     self._out_i(0, 1)
