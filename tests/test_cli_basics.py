@@ -73,6 +73,21 @@ def test_info_on_a_fold_animation(tmp_path, capsys):
     assert r["edges_assignment"] == {"B": 9, "F": 3, "U": 2}
     assert r["max_abs_angle_defect_rad"] < 1e-15 and r["max_planarity"] == 0.0
     assert r["boundary_loops"] == 1 and r["interior_vertices"] == 1
+    # the fold states are rigid rotations about the hinge: no edge stretches, faces stay planar
+    assert r["frames_max_edge_strain"] < 1e-14 and r["frames_max_planarity"] < 1e-14
+    assert r["last_frame_max_fold_deg"] == pytest.approx(np.degrees(0.4), abs=1e-9)
+
+
+def test_info_reports_stretch_in_a_fold_state(tmp_path):
+    mesh = mixed_mesh()
+    V = folded_coords(mesh, 0.3)
+    V[9] *= 1.01  # stretch the pentagon's tip
+    save_fold(FoldModel.from_mesh(mesh, frames=[FoldFrame(V)]), tmp_path / "s.fold")
+    assert main(["info", str(tmp_path / "s.fold"), "--report", str(tmp_path / "r.json"), "-q"]) == 0
+    r = json.loads((tmp_path / "r.json").read_text())
+    L0, L1 = mesh.edge_lengths, mesh.with_vertices(V).edge_lengths
+    assert r["frames_max_edge_strain"] == pytest.approx(np.max(np.abs(L1 / L0 - 1)), rel=1e-12)
+    assert r["frames_max_edge_strain"] > 1e-3
 
 
 def test_info_on_the_pleat_fixture_reports_the_rotation(capsys):

@@ -12,7 +12,9 @@ defect 2*pi - sum of corner angles over interior vertices (max and mean of its a
 radians; 0 for a developable panel), face planarity (max distance of a face's vertices to its
 best-fit plane / mean edge length of the face), the face/vertex tags present, and for FOLD files
 the frames, edge assignments and the file's unit. FOLD files are measured in their key frame
-(the crease pattern). Units inside are metres.
+(the crease pattern); with fold states, info also gives the largest relative edge-length change
+against the key frame over all states (0 for an isometric fold), their largest face planarity, and
+the largest fold angle of the last state measured from its coordinates. Units inside are metres.
 
 Exit codes: 0 ok; 2 bad file (one line naming the file and the problem; --report not written).
 
@@ -82,7 +84,29 @@ def summarize(path: str) -> dict:
             "creator": model.creator,
             "notes": list(model.notes),
         })
+        if model.n_frames:
+            report.update(_frame_measures(model, mesh))
     return report
+
+
+def _frame_measures(model, key) -> dict:
+    """Over all fold states: the largest edge-length change against the key frame (a fold state of
+    sheet metal should be an isometry), the largest face planarity, and the last state's largest
+    fold angle measured from its coordinates (degrees, valley +)."""
+    import numpy as np
+
+    from fabkit import measures
+
+    L0 = key.edge_lengths
+    strain, planarity = 0.0, 0.0
+    for i in range(model.n_frames):
+        m = model.frame_mesh(i)
+        strain = max(strain, float(np.max(np.abs(m.edge_lengths / L0 - 1.0))) if len(L0) else 0.0)
+        planarity = max(planarity, float(measures.face_planarity(m).max()))
+    d = np.degrees(measures.dihedral_angles(model.frame_mesh(-1)))
+    k = int(np.argmax(np.abs(d))) if len(d) else 0
+    return {"frames_max_edge_strain": strain, "frames_max_planarity": planarity,
+            "last_frame_max_fold_deg": float(d[k]) if len(d) else 0.0}
 
 
 def _lines(r: dict) -> list[str]:
@@ -101,6 +125,10 @@ def _lines(r: dict) -> list[str]:
         asg = " ".join(f"{k}:{v}" for k, v in r["edges_assignment"].items())
         out.append(f"  FOLD: {r['frames']} fold state frame(s), file unit {r['unit']!r} (shown in metres), "
                    f"classes {r['frame_classes']}, assignments {asg}")
+        if r["frames"]:
+            out.append(f"  fold states: max edge-length change {r['frames_max_edge_strain']:.3g} (relative), "
+                       f"max planarity {r['frames_max_planarity']:.3g}, "
+                       f"last state's largest fold {r['last_frame_max_fold_deg']:.4g} deg")
         out.extend(f"  note: {n}" for n in r["notes"])
     out.extend(f"  warning: {w}" for w in r["warnings"])
     return out
