@@ -99,7 +99,10 @@ def layout_panels(surface: GridSurface, rows: int = 14, cols: int = 3, columns_p
         raise InputError(f"columns per panel must be even and >= 2 (half-panel offsets), got {K}")
     if rows > nv - 1:
         raise InputError(f"{rows} bands need at least {rows + 1} grid rows; the surface has {nv}")
-    arcs = np.array([(b * (nv - 1)) // rows for b in range(rows + 1)], dtype=np.int64)
+    # arc rows: evenly spaced, rounded symmetrically (arc rows-b mirrors arc b) so a mirror-symmetric
+    # surface gives a mirror-symmetric layout
+    arcs = np.array([(b * (nv - 1)) // rows if 2 * b <= rows else nv - 1 - ((rows - b) * (nv - 1)) // rows
+                     for b in range(rows + 1)], dtype=np.int64)
     if np.any(np.diff(arcs) < 1):
         raise InputError("bands would be empty: use fewer rows or subdivide more")
     n_st = cols * K + 1
