@@ -105,6 +105,11 @@ def test_reads_texture_normal_corners_groups_materials_and_continuations(tmp_pat
     np.testing.assert_array_equal(mesh.vertices[1], [1, 0, 0])
 
 
+def test_comment_ending_in_backslash_does_not_swallow_the_next_line(tmp_path):
+    text = "# exported to C:\\panels\\\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+    assert load_obj(write(tmp_path, text)).n_vertices == 3
+
+
 def test_negative_indices_are_relative_to_vertices_so_far(tmp_path):
     text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 1 1 0\nf 2 -1 3\n"
     assert load_obj(write(tmp_path, text)).faces_list() == [[0, 1, 2], [1, 3, 2]]

@@ -47,6 +47,9 @@ def _logical_lines(text: str):
         line = raw.rstrip()
         if not pending:
             start = number
+            if line.lstrip().startswith("#"):  # a comment ending in '\\' (a Windows path) continues nothing
+                yield number, line
+                continue
         if line.endswith("\\"):
             pending += line[:-1] + " "
             continue
