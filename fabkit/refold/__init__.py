@@ -1,0 +1,266 @@
+"""Refold: the sequence of rigid fold states that takes a flat pattern to its 3D target (paper §3.6).
+
+`RefoldSolver(flat, target)` sets up once (triangulation, vertex loops, face tree, Jacobian
+pattern, target angles); `solver.solve(...)` runs a schedule. `refold(flat, target, **options)`
+does both. The maths is in `kinematics` (loop closure, Newton projection) and `geometry`
+(positions from angles); `intersect` checks that faces do not pass through each other.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from fabkit.errors import InputError
+from fabkit.measures import dihedral_angles
+from fabkit.mesh import PolyMesh
+from fabkit.refold.geometry import build_face_tree, corner_mismatch, face_transforms, vertex_positions
+from fabkit.refold.intersect import intersecting_pairs
+from fabkit.refold.kinematics import (SOLVERS, JacobianPattern, MinNormSolver, NewtonResult, build_vertex_loops,
+                                      loop_closure, project_to_constraints)
+from fabkit.refold.sequence import (FoldSequence, build_schedule, edge_kind_names, middle_row_hinges,
+                                    parse_steps)
+from fabkit.refold.triangulate import BOUNDARY, CREASE, DIAGONAL, RULING, TriangulatedPanel, triangulate_panel
+from fabkit.refold.validate import NotAFoldError, check_flat, check_is_fold, check_pair
+
+__all__ = ["RefoldSolver", "refold", "FoldSequence", "NotAFoldError", "SOLVERS", "DEFAULT_LENGTH_RTOL"]
+
+#: Largest relative edge-length difference between TARGET and FLAT accepted as "a fold of FLAT".
+DEFAULT_LENGTH_RTOL = 1e-6
+#: Newton stops when every vertex's loop-closure residual is below this [rad].
+DEFAULT_TOL = 1e-10
+#: Angle below which a crease or ruling counts as flat (F) rather than M/V [rad].
+FLAT_ANGLE = 1e-9
+
+
+class RefoldSolver:
+    """Set up once for a FLAT/TARGET pair, then solve fold states for any schedule.
+
+    flat: the crease pattern (z = 0, faces CCW from +z, tags strip/column/middle optional);
+    target: the same panel folded (same vertices and faces). fixed_face: polygon clamped at its flat
+    position (default: the middle-row face of the middle strip, else the face nearest the centroid).
+    length_rtol: refuse (NotAFoldError) when an edge length differs by more (relative).
+    solver: "direct" (sparse factorisation), "lsmr" (sparse iterative) or "dense" (pinv baseline).
+    """
+
+    def __init__(self, flat: PolyMesh, target: PolyMesh, *, fixed_face: int | None = None,
+                 diagonal: str = "short", length_rtol: float = DEFAULT_LENGTH_RTOL, solver: str = "direct",
+                 tol: float = DEFAULT_TOL, max_iter: int = 30, flat_name: str = "FLAT", target_name: str = "TARGET"):
+        if solver not in SOLVERS:
+            raise ValueError(f"unknown solver {solver!r} ({', '.join(SOLVERS)})")
+        check_pair(flat, target, flat_name, target_name)
+        self.flat, self.target = flat, target
+        self.panel: TriangulatedPanel = triangulate_panel(flat, diagonal)
+        check_flat(flat, self.panel.tris, flat_name)
+        self.flat_vertices = np.array(flat.vertices)
+        self.max_length_mismatch = check_is_fold(self.panel.topology, self.flat_vertices, np.asarray(target.vertices),
+                                                 length_rtol, target_name)
+        self.tol, self.max_iter = float(tol), int(max_iter)
+        self.linear_solver = MinNormSolver(solver)
+        self.panel_size = flat.size
+        self.loops = build_vertex_loops(self.panel.topology, self.flat_vertices)
+        self.fixed_face = self._pick_fixed_face(fixed_face, flat_name)
+        self.fixed_triangle = int(np.flatnonzero(self.panel.tri_face == self.fixed_face)[0])
+        try:
+            self.tree = build_face_tree(self.panel.topology, self.flat_vertices, self.fixed_triangle)
+        except ValueError as exc:
+            raise InputError(str(exc), source=flat_name) from None
+        tmesh = PolyMesh(target.vertices, topology=self.panel.topology, validate=False)
+        self.target_angles = dihedral_angles(tmesh)
+        E = self.panel.topology.n_edges
+        self.target_angles[~self.panel.hinge_mask] = 0.0
+        self.flat_lengths = np.linalg.norm(self.flat_vertices[self.panel.edges[:, 1]]
+                                           - self.flat_vertices[self.panel.edges[:, 0]], axis=1)
+        self.hinges = np.flatnonzero(self.panel.hinge_mask)
+        self._patterns: dict[bytes, JacobianPattern] = {}
+        assert len(self.target_angles) == E
+
+    # ---- set-up helpers --------------------------------------------------------------------
+    def _pick_fixed_face(self, fixed_face: int | None, flat_name: str) -> int:
+        F = self.flat.n_faces
+        if fixed_face is not None:
+            if not 0 <= int(fixed_face) < F:
+                raise InputError(f"fixed face {fixed_face} does not exist (faces 0..{F - 1})", source="--fixed-face")
+            return int(fixed_face)
+        fd = self.flat.face_data
+        if "middle" in fd:
+            mids = np.flatnonzero(np.asarray(fd["middle"]) != 0)
+            if len(mids):
+                if "strip" in fd:
+                    strips = np.asarray(fd["strip"])[mids]
+                    want = (int(strips.min()) + int(strips.max())) // 2
+                    mids = mids[np.argsort(np.abs(strips - want), kind="stable")]
+                return int(mids[0])
+        c = self.flat.face_centroids
+        return int(np.argmin(np.linalg.norm(c - self.flat_vertices[self.flat.topology.used_vertex_mask].mean(0),
+                                            axis=1)))
+
+    def driven_hinges(self, drive="middle-row") -> tuple[np.ndarray, list[str]]:
+        """Hinge ids for `drive` ("middle-row", "all" or an array of hinge ids) and notes."""
+        notes = []
+        if isinstance(drive, str):
+            if drive == "middle-row":
+                d = middle_row_hinges(self.flat, self.panel)
+                if len(d) == 0:
+                    notes.append("no middle-row crease hinges (face_data 'middle' missing or not on a crease): "
+                                 "driving every crease hinge")
+                    drive = "all"
+                else:
+                    return d, notes
+            if drive == "all":
+                d = np.flatnonzero(self.panel.edge_kind == CREASE)
+                if len(d) == 0:
+                    raise InputError("the panel has no crease hinges to drive", source="--drive")
+                return d, notes
+            raise InputError(f"unknown drive {drive!r} (middle-row, all or a JSON file)", source="--drive")
+        d = np.unique(np.asarray(drive, np.int64))
+        if len(d) == 0 or d.min() < 0 or d.max() >= len(self.panel.edge_kind) or \
+                np.any(self.panel.edge_kind[d] == BOUNDARY):
+            raise InputError("driven edges must be interior hinge ids", source="--drive")
+        return d, notes
+
+    def pattern(self, driven: np.ndarray) -> JacobianPattern:
+        key = np.asarray(driven, np.int64).tobytes()
+        if key not in self._patterns:
+            free = np.setdiff1d(self.hinges, driven)
+            self._patterns[key] = JacobianPattern(self.loops, free)
+        return self._patterns[key]
+
+    # ---- one state -----------------------------------------------------------------------------
+    def fold_state(self, rho_ref: np.ndarray, rho_start: np.ndarray, driven: np.ndarray) -> NewtonResult:
+        """Project the reference angles onto the rigid-fold manifold (driven hinges held at rho_ref)."""
+        return project_to_constraints(self.loops, rho_start, rho_ref, self.pattern(driven), self.linear_solver,
+                                      tol=self.tol, max_iter=self.max_iter)
+
+    def _advance(self, rho_prev, ref_prev, ref_next, driven):
+        """Solve the next state: Newton from the reference angles (so the state depends on its fraction
+        only, and the target state is the target); if that fails, continue from the previous state."""
+        res = self.fold_state(ref_next, ref_next, driven)
+        if res.converged:
+            return res, res.iterations, False
+        again = self.fold_state(ref_next, rho_prev + (ref_next - ref_prev), driven)
+        return again, res.iterations + again.iterations, again.converged
+    def positions(self, rho: np.ndarray):
+        """(vertex positions (n, 3), face transforms) for hinge angles rho, in the panel frame."""
+        tr = face_transforms(self.tree, rho)
+        return vertex_positions(self.tree, self.flat_vertices, rho, tr), tr
+
+    def diagnostics(self, rho: np.ndarray, V: np.ndarray, transforms) -> dict:
+        r, _ = loop_closure(self.loops, rho, jacobian=False)
+        E = self.panel.edges
+        L = np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1)
+        return {
+            "residual": float(np.linalg.norm(r, axis=1).max(initial=0.0)),
+            "edge_length_error": float(np.max(np.abs(L - self.flat_lengths) / self.flat_lengths)),
+            "corner_mismatch": corner_mismatch(self.panel.topology, self.flat_vertices, V, transforms),
+        }
+
+    def target_distance(self, V: np.ndarray) -> float:
+        """Max distance [m] of V to the target after aligning the target's fixed face onto V's."""
+        face = self.flat.face(self.fixed_face)
+        T = np.asarray(self.target.vertices)
+        a, b = V[face], T[face]
+        ca, cb = a.mean(0), b.mean(0)
+        R, _ = Rotation.align_vectors(a - ca, b - cb)
+        aligned = R.apply(T - cb) + ca
+        used = self.flat.topology.used_vertex_mask
+        return float(np.linalg.norm(aligned[used] - V[used], axis=1).max())
+
+    # ---- a whole schedule -------------------------------------------------------------------------
+    def solve(self, fractions: np.ndarray, driven: np.ndarray, step_of_state: np.ndarray | None = None,
+              check_intersections: bool = True, progress=None, notes=()) -> FoldSequence:
+        """Fold states for a schedule of fractions (S, E); state 0 must be all zeros (flat)."""
+        fractions = np.asarray(fractions, np.float64)
+        S, E = fractions.shape
+        if np.any(fractions[0] != 0.0):
+            raise ValueError("the first state of a schedule must be flat (all fractions 0)")
+        driven = np.asarray(driven, np.int64)
+        ref = fractions * self.target_angles[None, :]
+        angles = np.zeros((S, E))
+        positions = np.zeros((S,) + self.flat_vertices.shape)
+        resid = np.zeros(S)
+        elen = np.zeros(S)
+        cmis = np.zeros(S)
+        its = np.zeros(S, np.int64)
+        conv = np.ones(S, bool)
+        inter = np.zeros(S, np.int64)
+        rho = np.zeros(E)
+        for s in range(S):
+            if s > 0:
+                res, n_it, fallback = self._advance(angles[s - 1], ref[s - 1], ref[s], driven)
+                if fallback:
+                    notes = tuple(notes) + (f"state {s}: Newton from the reference angles failed; "
+                                            "continued from the previous state instead",)
+                rho = res.rho
+                its[s] = n_it
+                conv[s] = res.converged
+            angles[s] = rho
+            V, tr = self.positions(rho)
+            positions[s] = V
+            d = self.diagnostics(rho, V, tr)
+            resid[s], elen[s], cmis[s] = d["residual"], d["edge_length_error"], d["corner_mismatch"]
+            if check_intersections:
+                inter[s] = len(intersecting_pairs(V, self.panel.tris, tol=1e-9 * self.panel_size))
+            if progress is not None:
+                progress(1)
+            if not conv[s]:
+                notes = tuple(notes) + (f"Newton did not converge at state {s} (loop residual {resid[s]:.3g} rad); "
+                                        "later states were not computed",)
+                keep = s + 1
+                angles, positions, resid, elen, cmis, its, conv, inter = (
+                    x[:keep] for x in (angles, positions, resid, elen, cmis, its, conv, inter))
+                fractions = fractions[:keep]
+                if step_of_state is not None:
+                    step_of_state = step_of_state[:keep]
+                break
+        step = np.asarray(step_of_state if step_of_state is not None else
+                          np.where(np.arange(len(angles)) == 0, -1, 0), np.int64)
+        return FoldSequence(
+            flat_vertices=self.flat_vertices, tris=self.panel.tris, tri_face=self.panel.tri_face,
+            edges=np.array(self.panel.edges), edge_kind=edge_kind_names(self.panel),
+            edges_assignment=self.assignment(angles), target_angles=self.target_angles, driven=driven,
+            fixed_face=self.fixed_face, fixed_triangle=self.fixed_triangle, fractions=fractions, angles=angles,
+            positions=positions, step=step, residual=resid, edge_length_error=elen, corner_mismatch=cmis,
+            newton_iterations=its, converged=conv, intersections=inter,
+            target_distance=self.target_distance(positions[-1]) if conv[-1] else float("nan"),
+            panel_size=self.panel_size, face_data=self.triangle_face_data(), notes=tuple(notes))
+
+    def assignment(self, angles: np.ndarray) -> np.ndarray:
+        """FOLD letters: B, J for diagonals, M/V by the target's sign (F when flat, U when a hinge
+        changes sign during the sequence)."""
+        k = self.panel.edge_kind
+        t = self.target_angles
+        out = np.full(len(k), "F", dtype="<U1")
+        out[(t > FLAT_ANGLE) & ((k == CREASE) | (k == RULING))] = "V"
+        out[(t < -FLAT_ANGLE) & ((k == CREASE) | (k == RULING))] = "M"
+        slack = 1e-9
+        flips = ((out == "V") & np.any(angles < -slack, axis=0)) | ((out == "M") & np.any(angles > slack, axis=0))
+        out[flips] = "U"
+        out[k == DIAGONAL] = "J"
+        out[k == BOUNDARY] = "B"
+        return out
+
+    def triangle_face_data(self) -> dict:
+        fd = {"polygon": self.panel.tri_face.copy()}
+        for name in ("strip", "column", "middle"):
+            if name in self.flat.face_data:
+                fd[name] = np.asarray(self.flat.face_data[name])[self.panel.tri_face]
+        return fd
+
+
+def refold(flat: PolyMesh, target: PolyMesh, *, frames: int = 20, drive="middle-row", steps=None,
+           fixed_face: int | None = None, diagonal: str = "short", length_rtol: float = DEFAULT_LENGTH_RTOL,
+           solver: str = "direct", tol: float = DEFAULT_TOL, check_intersections: bool = True,
+           progress=None) -> FoldSequence:
+    """One-shot refold: `frames` states per step from flat (0) to target (1).
+
+    drive: "middle-row" (paper default), "all" (every crease hinge) or an array of hinge ids.
+    steps: None (one step), a string like "crease0,crease1", or a list of hinge-id arrays.
+    """
+    solver_ = RefoldSolver(flat, target, fixed_face=fixed_face, diagonal=diagonal, length_rtol=length_rtol,
+                           solver=solver, tol=tol)
+    driven, notes = solver_.driven_hinges(drive)
+    if isinstance(steps, str):
+        steps = parse_steps(steps, solver_.panel, driven)
+    F, step_of_state = build_schedule(solver_.panel, flat, driven, steps, int(frames))
+    return solver_.solve(F, driven, step_of_state, check_intersections=check_intersections, progress=progress,
+                         notes=notes)

@@ -1,0 +1,76 @@
+"""Do faces of a fold state pass through each other? Triangle-triangle tests, vectorised.
+
+Broad phase: bounding spheres (centroid, farthest corner) in a scipy cKDTree; candidate pairs are
+those whose spheres overlap. Pairs that share a vertex are skipped (neighbours always touch).
+Narrow phase: the separating-axis test for two triangles (face normals, the nine edge-edge cross
+products, and the in-plane edge normals for the coplanar case). Written by hand because neither
+scipy nor trimesh has a triangle-triangle intersection test for one mesh against itself (trimesh's
+collision manager needs python-fcl, which is not a dependency).
+
+Touching within `tol` (a length) does not count as intersecting.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+__all__ = ["candidate_pairs", "triangles_intersect", "intersecting_pairs"]
+
+
+def candidate_pairs(V: np.ndarray, tris: np.ndarray, pad: float = 0.0) -> np.ndarray:
+    """Pairs (i < j) of triangles whose bounding spheres overlap and that share no vertex."""
+    P = V[tris]
+    c = P.mean(axis=1)
+    rad = np.linalg.norm(P - c[:, None], axis=2).max(axis=1) + pad
+    if len(tris) < 2:
+        return np.zeros((0, 2), np.int64)
+    pairs = cKDTree(c).query_pairs(2.0 * float(rad.max()), output_type="ndarray")
+    if len(pairs) == 0:
+        return np.zeros((0, 2), np.int64)
+    i, j = pairs[:, 0], pairs[:, 1]
+    near = np.linalg.norm(c[i] - c[j], axis=1) <= rad[i] + rad[j]
+    i, j = i[near], j[near]
+    share = (tris[i][:, :, None] == tris[j][:, None, :]).any(axis=(1, 2))
+    return np.stack([i[~share], j[~share]], axis=1).astype(np.int64)
+
+
+def triangles_intersect(A: np.ndarray, B: np.ndarray, tol: float = 0.0) -> np.ndarray:
+    """For stacks of triangles A, B (k, 3, 3): True where they overlap by more than `tol`.
+
+    Separating-axis test: two convex sets are disjoint iff some axis separates their projections.
+    For triangles the candidate axes are n_A, n_B, e_A x e_B (9) and, for (near-)coplanar pairs,
+    n x e for every edge (6). Degenerate axes (zero length) are ignored.
+    """
+    k = len(A)
+    if k == 0:
+        return np.zeros(0, bool)
+    eA = np.roll(A, -1, axis=1) - A   # (k, 3, 3) edges
+    eB = np.roll(B, -1, axis=1) - B
+    nA = np.cross(eA[:, 0], eA[:, 1])
+    nB = np.cross(eB[:, 0], eB[:, 1])
+    axes = [nA[:, None], nB[:, None],
+            np.cross(eA[:, :, None], eB[:, None, :]).reshape(k, 9, 3),
+            np.cross(nA[:, None], eA), np.cross(nB[:, None], eB)]
+    ax = np.concatenate(axes, axis=1)  # (k, 17, 3)
+    length = np.linalg.norm(ax, axis=2)
+    scale = np.maximum(np.abs(A).max(axis=(1, 2)), np.abs(B).max(axis=(1, 2)))
+    edge_scale = np.maximum(np.linalg.norm(eA, axis=2).max(axis=1), np.linalg.norm(eB, axis=2).max(axis=1))
+    valid = length > 1e-12 * (edge_scale ** 2)[:, None]
+    unit = np.where(valid[:, :, None], ax / np.where(valid, length, 1.0)[:, :, None], 0.0)
+    pA = np.einsum("kav,kpv->kap", unit, A)  # (k, 17, 3) projections of the 3 corners
+    pB = np.einsum("kav,kpv->kap", unit, B)
+    gap = np.maximum(pB.min(axis=2) - pA.max(axis=2), pA.min(axis=2) - pB.max(axis=2))
+    separated = np.any(valid & (gap >= -tol - 1e-12 * scale[:, None]), axis=1)
+    return ~separated
+
+
+def intersecting_pairs(V: np.ndarray, tris: np.ndarray, tol: float = 0.0, chunk: int = 20000) -> np.ndarray:
+    """Pairs of triangles (sharing no vertex) that pass through each other in positions V."""
+    V = np.asarray(V, np.float64)
+    pairs = candidate_pairs(V, tris, pad=tol)
+    hits = []
+    for s in range(0, len(pairs), chunk):
+        p = pairs[s:s + chunk]
+        hit = triangles_intersect(V[tris[p[:, 0]]], V[tris[p[:, 1]]], tol)
+        hits.append(p[hit])
+    return np.concatenate(hits) if hits else np.zeros((0, 2), np.int64)

@@ -1,0 +1,255 @@
+"""Rigid-origami kinematics with fold angles as the state (Tachi 2009, paper §3.6).
+
+Loop closure at an interior vertex v: walking around v through its faces f_0, f_1, ..., f_{n-1},
+f_n = f_0, each step rotates by the fold angle rho_k about the crease e_k between f_k and f_{k+1}.
+All rotations are about lines through v in the flat crease pattern, so closure is
+
+    P_v(rho) = R(a_0, rho_0) R(a_1, rho_1) ... R(a_{n-1}, rho_{n-1}) = I,
+
+with a_k = sigma_k * (unit flat direction lo->hi of e_k), sigma_k = +1 when f_{k+1} is the edge's
+left face (this makes valley positive, like `fabkit.measures.dihedral_angles`). The residual is
+r_v = rotvec(P_v) (3 numbers, radians). Its derivative: dP/drho_k = [omega_k]x P with
+omega_k = (R_0 ... R_{k-1}) a_k, the crease direction in f_0's frame; at P = I that is the exact
+Jacobian of r (Tachi's direction-cosine rows), and away from it an O(|r|) approximation, so Newton
+still converges fast once close.
+
+The update is Tachi's `d_rho = -C^+ r + (I - C^+ C) d_rho0` over the free angles (the driven
+angles are set, not solved for), computed as `d_rho0 + argmin |x| s.t. C x = -r - C d_rho0` with
+scipy's LSMR (minimum-norm least squares) or a sparse factorisation of `C C^T` (same solution,
+faster on large panels), or a dense pseudo-inverse (the baseline).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from fabkit.mesh import MeshTopology
+
+__all__ = ["VertexLoops", "build_vertex_loops", "loop_closure", "NewtonResult", "project_to_constraints",
+           "SOLVERS"]
+
+SOLVERS = ("direct", "lsmr", "dense")
+
+
+@dataclass(frozen=True)
+class VertexLoops:
+    """Interior vertices' face cycles, padded to the largest valence.
+
+    `vertices` (nv,) interior vertex ids; `edge` (nv, k) hinge edge of each step (-1 = padding);
+    `axis` (nv, k, 3) signed unit axis a_k in the flat pattern (0 for padding); `n_edges` E.
+    """
+
+    vertices: np.ndarray
+    edge: np.ndarray
+    axis: np.ndarray
+    n_edges: int
+
+    @property
+    def n_loops(self) -> int:
+        return len(self.vertices)
+
+
+def build_vertex_loops(topology: MeshTopology, flat_vertices: np.ndarray) -> VertexLoops:
+    """Cycle of faces and hinges around every interior vertex of a triangle mesh (vectorised)."""
+    t = topology
+    V = np.asarray(flat_vertices, np.float64)
+    interior = np.flatnonzero(t.interior_vertex_mask)
+    corners, offsets = t.vertex_corners
+    valence = (offsets[1:] - offsets[:-1])[interior]
+    kmax = int(valence.max()) if len(interior) else 0
+    edge = np.full((len(interior), kmax), -1, np.int64)
+    axis = np.zeros((len(interior), kmax, 3))
+    c = corners[offsets[interior]]  # any corner at v starts the walk
+    E = t.edges
+    d = V[E[:, 1]] - V[E[:, 0]]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    for k in range(kmax):
+        live = k < valence
+        p = t.corner_prev[c]  # half-edge (prev -> v) of f_k; its twin starts the next face at v
+        e = t.halfedge_edge[p]
+        nxt = t.halfedge_twin[p]
+        if np.any(live & (nxt < 0)):
+            raise ValueError("interior vertex walk reached the boundary (mesh topology is inconsistent)")
+        f_next = t.corner_face[np.maximum(nxt, 0)]
+        sigma = np.where(t.edge_faces[e, 0] == f_next, 1.0, -1.0)
+        edge[live, k] = e[live]
+        axis[live, k] = sigma[live, None] * d[e[live]]
+        c = np.where(live, nxt, c)
+    return VertexLoops(vertices=interior, edge=edge, axis=axis, n_edges=t.n_edges)
+
+
+def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of scalar-last quaternions (..., 4), scipy's convention."""
+    ax, ay, az, aw = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    bx, by, bz, bw = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw,
+                     aw * bw - ax * bx - ay * by - az * bz], axis=-1)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (n, 3) arrays (np.cross has a large per-call overhead)."""
+    out = np.empty_like(b)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
+def _qrotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors v (n, 3) by unit quaternions q (n, 4): v + 2w (u x v) + 2 u x (u x v)."""
+    u, w = q[:, :3], q[:, 3:4]
+    t = 2.0 * _cross(u, v)
+    return v + w * t + _cross(u, t)
+
+
+def loop_closure(loops: VertexLoops, rho: np.ndarray, *, jacobian: bool = True):
+    """Residual `r` (nv, 3) = rotvec(P_v) and, if asked, the crease directions `omega` (nv, k, 3).
+
+    `omega[i, k]` is the Jacobian entry d r_i / d rho_{edge[i, k]} (see the module docstring).
+    Quaternion products, exp and log maps are written out in numpy (scipy's Rotation gives the same
+    numbers, checked in the tests, but its per-call overhead dominated the solve).
+    """
+    nv, kmax = loops.edge.shape
+    if nv == 0:
+        return np.zeros((0, 3)), np.zeros((0, kmax, 3))
+    angles = np.where(loops.edge >= 0, np.asarray(rho)[np.maximum(loops.edge, 0)], 0.0)
+    # exp map of every step at once: axis is a unit vector (or 0 for padding)
+    half = 0.5 * angles[..., None]
+    steps = np.concatenate([loops.axis * np.sin(half), np.cos(half)], axis=-1)  # (nv, k, 4)
+    acc = np.zeros((nv, 4))
+    acc[:, 3] = 1.0
+    omega = np.empty((nv, kmax, 3)) if jacobian else None
+    for k in range(kmax):
+        if jacobian:
+            omega[:, k] = _qrotate(acc, loops.axis[:, k])
+        acc = _qmul(acc, steps[:, k])
+    # log map (scipy's as_rotvec, written out to skip its per-call overhead): angle = 2 atan2(|u|, w)
+    acc *= np.where(acc[:, 3:4] < 0, -1.0, 1.0)
+    s = np.linalg.norm(acc[:, :3], axis=1)
+    angle = 2.0 * np.arctan2(s, acc[:, 3])
+    small = s < 1e-8
+    scale = np.where(small, 2.0 / np.maximum(acc[:, 3], 1e-300) * (1.0 + s * s / 6.0), angle / np.where(small, 1.0, s))
+    r = acc[:, :3] * scale[:, None]
+    return r, omega
+
+
+@dataclass(frozen=True)
+class NewtonResult:
+    rho: np.ndarray          # all hinge angles (E,), radians
+    residual: float          # max |rotvec(P_v)| component over interior vertices, radians
+    iterations: int          # Newton steps taken
+    converged: bool
+    factorizations: int      # linear solves that factorised (direct) or pseudo-inverted (dense)
+
+
+class JacobianPattern:
+    """Sparse structure of C restricted to the free hinges, built once; `matrix(omega)` fills it."""
+
+    def __init__(self, loops: VertexLoops, free_edges: np.ndarray):
+        col_of_edge = np.full(loops.n_edges, -1, np.int64)
+        col_of_edge[free_edges] = np.arange(len(free_edges))
+        cols = np.where(loops.edge >= 0, col_of_edge[np.maximum(loops.edge, 0)], -1)
+        self.mask = cols >= 0                      # (nv, k) slots that are free hinges
+        self.free_edges = np.asarray(free_edges, np.int64)
+        nv = loops.n_loops
+        vi = np.broadcast_to(np.arange(nv)[:, None], cols.shape)[self.mask]
+        rows = (3 * vi[:, None] + np.arange(3)).ravel()
+        cc = np.repeat(cols[self.mask], 3)
+        self.shape = (3 * nv, len(free_edges))
+        # each (row, column) pair occurs once, so the CSR data is a permutation of omega[mask]
+        order = sp.csr_matrix((np.arange(1, len(rows) + 1, dtype=np.float64), (rows, cc)), shape=self.shape)
+        self._perm = order.data.astype(np.int64) - 1
+        self._indices, self._indptr = order.indices.copy(), order.indptr.copy()
+
+    def matrix(self, omega: np.ndarray) -> sp.csr_matrix:
+        data = omega[self.mask].ravel()[self._perm]
+        return sp.csr_matrix((data, self._indices, self._indptr), shape=self.shape)
+
+
+class MinNormSolver:
+    """argmin |x| subject to C x = b (least squares if inconsistent), by one of three methods.
+
+    "direct": x = C^T y with (C C^T + mu I) y = b, a sparse LU of C C^T (SuperLU in symmetric mode
+    with a minimum-degree ordering); mu = 1e-13 * max diag only guards the rank deficiency of the
+    flat state. Refactorised for every Newton step: the Jacobian's small singular values (nearly
+    flat vertices inside the strips) make a kept factorisation a poor approximation, and the answer
+    would then depend on the iteration history. "lsmr": scipy's LSMR from x0 = 0 (its iterates stay
+    in the row space of C, so it returns the minimum-norm solution); exact but slow on large panels
+    for the same conditioning reason. "dense": numpy's pinv, the baseline.
+    """
+
+    def __init__(self, method: str = "direct", tol: float = 1e-15):
+        if method not in SOLVERS:
+            raise ValueError(f"unknown solver {method!r} ({', '.join(SOLVERS)})")
+        self.method, self.tol = method, tol
+        self.factorizations = 0
+        self.inner_iterations = 0   # LSMR iterations
+
+    def solve(self, C: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
+        if C.shape[1] == 0:
+            return np.zeros(0)
+        if self.method == "lsmr":
+            out = spla.lsmr(C, b, atol=self.tol, btol=self.tol, maxiter=20 * max(C.shape))
+            self.inner_iterations += int(out[2])
+            return out[0]
+        self.factorizations += 1
+        if self.method == "dense":
+            return np.linalg.pinv(C.toarray(), rcond=1e-12) @ b
+        CCt = (C @ C.T).tocsc()
+        scale = float(CCt.diagonal().max()) if CCt.nnz else 1.0
+        CCt = CCt + sp.identity(CCt.shape[0], format="csc") * (1e-13 * max(scale, 1e-300))
+        lu = spla.splu(CCt, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+        return C.T @ lu.solve(b)
+
+
+def project_to_constraints(loops: VertexLoops, rho_start: np.ndarray, rho_ref: np.ndarray,
+                           pattern: JacobianPattern, solver: MinNormSolver, *,
+                           tol: float = 1e-12, max_iter: int = 30, pull_steps: int = 0) -> NewtonResult:
+    """Newton iteration onto the loop-closure manifold with the driven angles held fixed.
+
+    Free angles (`pattern.free_edges`) start at `rho_start`; the others are `rho_ref` throughout.
+    Each step is Tachi's update `d = -C^+ r + (I - C^+ C) d0` over the free angles. The first
+    `pull_steps` steps use `d0 = rho_ref - rho` (move toward the reference angles along the
+    constraint tangent space while fixing the residual); the rest use `d0 = 0`, the minimum-norm
+    Newton correction back onto the manifold. Converged when max |r| <= tol after the pull steps.
+    """
+    free = pattern.free_edges
+    rho = np.array(rho_ref, dtype=np.float64, copy=True)
+    rho[free] = rho_start[free]
+    f0 = solver.factorizations
+
+    def evaluate(x):
+        r, omega = loop_closure(loops, x)
+        return r, omega, (float(np.abs(r).max()) if len(r) else 0.0)
+
+    def done(ok, res, its):
+        return NewtonResult(rho, res, its, ok, solver.factorizations - f0)
+
+    r, omega, res = evaluate(rho)
+    if not np.isfinite(res):
+        return done(False, float("nan"), 0)
+    its = 0
+    while True:
+        d0 = rho_ref[free] - rho[free] if its < pull_steps else None
+        if d0 is not None and float(np.abs(d0).max(initial=0.0)) <= tol:
+            d0 = None
+        if res <= tol and d0 is None:
+            return done(True, res, its)
+        if its >= max_iter:
+            return done(False, res, its)
+        its += 1
+        C = pattern.matrix(omega)
+        b = -r.ravel()
+        step = solver.solve(C, b) if d0 is None else d0 + solver.solve(C, b - C @ d0)
+        if not np.all(np.isfinite(step)):
+            return done(False, float("nan"), its)
+        rho[free] += step
+        prev = res
+        r, omega, res = evaluate(rho)
+        if not np.isfinite(res) or res > 1e3 * max(prev, tol):
+            return done(False, res if np.isfinite(res) else float("nan"), its)  # diverging
