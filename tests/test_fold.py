@@ -387,3 +387,41 @@ def test_reference_js_reads_rotated_pleat(tmp_path):
     assert js["faceOrientation"] == [1, 1, 1, 1]
     assert js["foldAngle"][0] is None and js["foldAngle"][1:4] == [-180, 180, -180]
     assert sorted(_cyclic(f) for f in js["recoveredFaces"]) == sorted(_cyclic(f) for f in m.faces_vertices)
+
+
+# ---- property tests of the exact conversions -----------------------------------------------------
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.floats(allow_nan=False, allow_infinity=False))
+def test_any_double_survives_the_mm_text(x):
+    from fabkit.io.fold import _metres_to_mm_text, _Num, _to_si
+
+    text = _metres_to_mm_text(x)
+    value = json.loads(text, parse_float=_Num)  # what the reader sees
+    back = _to_si(value, "mm")
+    assert back == x and (x != 0 or np.signbit(back) == np.signbit(x) or text in ("0", "-0"))
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.floats(min_value=-np.pi, max_value=np.pi))
+def test_any_angle_survives_the_degree_text(a):
+    from fabkit.io.fold import _degrees_to_radians, _Num, _radians_to_degrees_text
+
+    text = _radians_to_degrees_text(a)
+    value = json.loads(text, parse_float=_Num)
+    assert _degrees_to_radians(value) == a
+    assert abs(float(text)) <= 180.0
+
+
+def test_angle_just_beyond_pi_is_refused_before_writing(tmp_path):
+    mesh = grid(2, 1)
+    angle = np.zeros(mesh.n_edges)
+    angle[mesh.topology.interior_edges[0]] = np.nextafter(np.pi, 4.0)
+    with pytest.raises(InputError, match="outside"):
+        FoldModel.from_mesh(mesh, edges_fold_angle=angle)
+    angle[mesh.topology.interior_edges[0]] = np.pi  # exactly 180 degrees is fine and reads back as pi
+    save_fold(FoldModel.from_mesh(mesh, edges_fold_angle=angle), tmp_path / "pi.fold")
+    assert load_fold(tmp_path / "pi.fold").edges_fold_angle.max() == np.pi
