@@ -27,7 +27,7 @@ __all__ = ["RefoldSolver", "refold", "FoldSequence", "NotAFoldError", "SOLVERS",
 #: Largest relative edge-length difference between TARGET and FLAT accepted as "a fold of FLAT".
 DEFAULT_LENGTH_RTOL = 1e-6
 #: Newton stops when every vertex's loop-closure residual is below this [rad].
-DEFAULT_TOL = 1e-10
+DEFAULT_TOL = 1e-12
 #: Angle below which a crease or ruling counts as flat (F) rather than M/V [rad].
 FLAT_ANGLE = 1e-9
 
@@ -222,7 +222,8 @@ class RefoldSolver:
             positions=positions, step=step, residual=resid, edge_length_error=elen, corner_mismatch=cmis,
             newton_iterations=its, converged=conv, intersections=inter,
             target_distance=self.target_distance(positions[-1]) if conv[-1] else float("nan"),
-            panel_size=self.panel_size, face_data=self.triangle_face_data(), notes=tuple(notes))
+            panel_size=self.panel_size, face_data=self.triangle_face_data(),
+            polygon_edge=np.array(self.panel.edge_poly_edge), notes=tuple(notes))
 
     def assignment(self, angles: np.ndarray) -> np.ndarray:
         """FOLD letters: B, J for diagonals, M/V by the target's sign (F when flat, U when a hinge

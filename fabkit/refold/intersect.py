@@ -34,34 +34,48 @@ def candidate_pairs(V: np.ndarray, tris: np.ndarray, pad: float = 0.0) -> np.nda
     return np.stack([i[~share], j[~share]], axis=1).astype(np.int64)
 
 
+def _separated_on(axes: np.ndarray, A: np.ndarray, B: np.ndarray, tol: np.ndarray) -> np.ndarray:
+    """True where one of `axes` (k, m, 3) separates triangles A, B (k, 3, 3) by more than -tol."""
+    length = np.linalg.norm(axes, axis=2)
+    scale = np.maximum(np.abs(A).max(axis=(1, 2)), np.abs(B).max(axis=(1, 2)))
+    valid = length > 1e-12 * np.max(length, axis=1, keepdims=True) + 1e-300
+    unit = axes / np.where(valid, length, 1.0)[:, :, None]
+    pA = np.einsum("kav,kpv->kap", unit, A)
+    pB = np.einsum("kav,kpv->kap", unit, B)
+    gap = np.maximum(pB.min(axis=2) - pA.max(axis=2), pA.min(axis=2) - pB.max(axis=2))
+    return np.any(valid & (gap >= -(tol + 1e-12 * scale)[:, None]), axis=1)
+
+
 def triangles_intersect(A: np.ndarray, B: np.ndarray, tol: float = 0.0) -> np.ndarray:
     """For stacks of triangles A, B (k, 3, 3): True where they overlap by more than `tol`.
 
     Separating-axis test: two convex sets are disjoint iff some axis separates their projections.
     For triangles the candidate axes are n_A, n_B, e_A x e_B (9) and, for (near-)coplanar pairs,
-    n x e for every edge (6). Degenerate axes (zero length) are ignored.
+    n x e for every edge (6); degenerate (zero) axes are ignored. Cheap axes go first and only the
+    pairs they cannot separate reach the expensive ones.
     """
     k = len(A)
+    out = np.zeros(k, bool)
     if k == 0:
-        return np.zeros(0, bool)
-    eA = np.roll(A, -1, axis=1) - A   # (k, 3, 3) edges
-    eB = np.roll(B, -1, axis=1) - B
+        return out
+    tolv = np.full(k, float(tol))
+    # axis-aligned boxes
+    sep = np.any((A.min(axis=1) > B.max(axis=1) + tolv[:, None]) | (B.min(axis=1) > A.max(axis=1) + tolv[:, None]),
+                 axis=1)
+    idx = np.flatnonzero(~sep)
+    eA = np.roll(A[idx], -1, axis=1) - A[idx]
+    eB = np.roll(B[idx], -1, axis=1) - B[idx]
     nA = np.cross(eA[:, 0], eA[:, 1])
     nB = np.cross(eB[:, 0], eB[:, 1])
-    axes = [nA[:, None], nB[:, None],
-            np.cross(eA[:, :, None], eB[:, None, :]).reshape(k, 9, 3),
-            np.cross(nA[:, None], eA), np.cross(nB[:, None], eB)]
-    ax = np.concatenate(axes, axis=1)  # (k, 17, 3)
-    length = np.linalg.norm(ax, axis=2)
-    scale = np.maximum(np.abs(A).max(axis=(1, 2)), np.abs(B).max(axis=(1, 2)))
-    edge_scale = np.maximum(np.linalg.norm(eA, axis=2).max(axis=1), np.linalg.norm(eB, axis=2).max(axis=1))
-    valid = length > 1e-12 * (edge_scale ** 2)[:, None]
-    unit = np.where(valid[:, :, None], ax / np.where(valid, length, 1.0)[:, :, None], 0.0)
-    pA = np.einsum("kav,kpv->kap", unit, A)  # (k, 17, 3) projections of the 3 corners
-    pB = np.einsum("kav,kpv->kap", unit, B)
-    gap = np.maximum(pB.min(axis=2) - pA.max(axis=2), pA.min(axis=2) - pB.max(axis=2))
-    separated = np.any(valid & (gap >= -tol - 1e-12 * scale[:, None]), axis=1)
-    return ~separated
+    sep = _separated_on(np.stack([nA, nB], axis=1), A[idx], B[idx], tolv[idx])
+    keep = ~sep
+    idx, eA, eB, nA, nB = idx[keep], eA[keep], eB[keep], nA[keep], nB[keep]
+    m = len(idx)
+    axes = np.concatenate([np.cross(eA[:, :, None], eB[:, None, :]).reshape(m, 9, 3),
+                           np.cross(nA[:, None], eA), np.cross(nB[:, None], eB)], axis=1)
+    sep = _separated_on(axes, A[idx], B[idx], tolv[idx])
+    out[idx[~sep]] = True
+    return out
 
 
 def intersecting_pairs(V: np.ndarray, tris: np.ndarray, tol: float = 0.0, chunk: int = 20000) -> np.ndarray:

@@ -39,7 +39,9 @@ class FoldSequence:
     `edge_length_error` (S,) max relative, `corner_mismatch` (S,) [m], `newton_iterations` (S,),
     `converged` (S,), `intersections` (S,) number of triangle pairs passing through each other.
     `target_distance` max vertex distance [m] of the last state to the target aligned on the fixed
-    face; `panel_size` [m] (bounding-box diagonal of the flat pattern).
+    face; `panel_size` [m] (bounding-box diagonal of the flat pattern). `face_data` per triangle
+    (`polygon` and the quads' strip/column/middle tags); `polygon_edge` (E,) FLAT's edge id of each
+    hinge (-1 for diagonals); `notes` remarks (fallbacks, non-convergence).
     """
 
     flat_vertices: np.ndarray
@@ -65,6 +67,7 @@ class FoldSequence:
     target_distance: float
     panel_size: float
     face_data: dict = field(default_factory=dict)
+    polygon_edge: np.ndarray | None = None
     notes: tuple = ()
 
     @property

@@ -1,0 +1,191 @@
+"""`fabkit refold FLAT.obj TARGET.obj -o SEQ.fold`: sequential rigid fold states from flat to target."""
+from __future__ import annotations
+
+import contextlib
+import math
+import sys
+import time
+from pathlib import Path
+
+from fabkit.commands._common import add_common, progress, say, to_jsonable
+
+HELP = """Fold states a robot walks the sheet through, from the flat pattern to the target (paper §3.6).
+
+Quads are split by a diagonal (a J hinge); rigid-origami kinematics with the fold angles as the
+state (Tachi 2009): loop closure at every interior vertex, minimum-norm Newton steps, positions by
+rotating faces outward from the clamped face. By default only the crease angles of the middle row
+of faces (face_data "middle") are prescribed, moving linearly from 0 to the target; every other
+angle follows from the constraints, as close to the same fraction of its target as closure allows.
+The last state is the target. The clamped face (--fixed-face, default the middle-row face of the
+middle strip) keeps its flat position: states are in the panel frame.
+
+FLAT and TARGET must have the same vertices and faces (FLAT in z = 0, e.g. from 'fabkit unfold').
+A TARGET whose edge lengths differ from FLAT's by more than --length-tol is not a fold of it: exit 1
+naming the worst edge, nothing written.
+
+--drive FILE: JSON list of FLAT edge ids or [u, v] vertex pairs; a list of such lists (steps folded
+one after another); or {"drive": [...], "steps": [[...], ...]}. --steps crease0,crease1 folds the
+middle-row creases one crease row at a time (stripK = the creases bounding strip K).
+
+Exit codes: 0 ok; 1 TARGET is not a fold of FLAT, a state did not converge, the last state misses
+the target by more than --target-tol, or faces pass through each other (files are still written
+and the report says which); 2 bad input.
+
+Example:
+  fabkit generate reflect -o panel.obj && fabkit unfold panel.obj -o flat.obj
+  fabkit refold flat.obj panel.obj -o seq.fold --frames 20 --png angles.png --glb states.glb
+"""
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("flat", metavar="FLAT.obj", help="flat pattern (z = 0), same faces as TARGET")
+    parser.add_argument("target", metavar="TARGET.obj", help="the folded (relaxed) panel")
+    parser.add_argument("-o", "--output", metavar="SEQ.fold", required=True, help="FOLD animation")
+    parser.add_argument("--frames", type=int, default=20, metavar="N",
+                        help="states per folding step, flat and target included (default 20)")
+    parser.add_argument("--drive", default="middle-row", metavar="middle-row|all|FILE",
+                        help="prescribed hinges: the middle-row creases (default), all creases, or a JSON file")
+    parser.add_argument("--steps", metavar="LIST", help="fold crease rows one after another, e.g. crease0,crease1")
+    parser.add_argument("--fixed-face", type=int, metavar="F", help="face clamped at the fixture (FLAT face id)")
+    parser.add_argument("--glb", metavar="F.glb", help="all states side by side in one GLB scene (viewing)")
+    parser.add_argument("--obj-dir", metavar="DIR", help="one OBJ per state (quads and tags kept): DIR/state_000.obj ...")
+    parser.add_argument("--png", metavar="F.png", help="plot of crease fold angles against the state")
+    parser.add_argument("--length-tol", type=float, default=1e-6, metavar="R",
+                        help="largest relative edge-length difference TARGET vs FLAT (default 1e-6)")
+    parser.add_argument("--target-tol", type=float, default=1e-6, metavar="R",
+                        help="largest distance of the last state to TARGET, relative to the panel size (default 1e-6)")
+    parser.add_argument("--diagonal", choices=("short", "02", "13"), default="short",
+                        help="quad diagonal that becomes the J hinge (default: the shorter one in FLAT)")
+    parser.add_argument("--solver", choices=("direct", "lsmr", "dense"), default="direct",
+                        help="minimum-norm linear solver: sparse factorisation (default), LSMR, dense pinv")
+    parser.add_argument("--no-intersections", action="store_true", help="skip the face interpenetration check")
+    add_common(parser)
+
+
+def _check_args(args) -> list[Path]:
+    from fabkit.errors import InputError
+
+    if args.frames < 2:
+        raise InputError(f"must be at least 2 (flat and target), got {args.frames}", source="--frames")
+    for name in ("length_tol", "target_tol"):
+        v = getattr(args, name)
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"must be a positive number, got {v}", source="--" + name.replace("_", "-"))
+    outputs = [p for p in (args.output, args.glb, args.png, args.report) if p]
+    resolved = [Path(p).resolve() for p in outputs]
+    if len(set(resolved)) != len(resolved):
+        raise InputError("two outputs name the same file", source=", ".join(outputs))
+    for inp in (args.flat, args.target):
+        if Path(inp).resolve() in resolved:
+            raise InputError("an output would overwrite the input", source=inp)
+    for p in outputs:
+        if not Path(p).parent.is_dir():
+            raise InputError("output directory does not exist", source=p)
+        if Path(p).is_dir():
+            raise InputError("is a directory, not a file name", source=p)
+    if args.glb and Path(args.glb).suffix.lower() != ".glb":
+        raise InputError("the film strip is written as .glb", source=args.glb)
+    if args.obj_dir and not Path(args.obj_dir).is_dir():
+        raise InputError("output directory does not exist", source=args.obj_dir)
+    return resolved
+
+
+def run(args) -> int:
+    from fabkit.commands._common import write_json
+    from fabkit.io.atomic import atomic_path
+    from fabkit.io.fold import save_fold
+    from fabkit.io.obj import load_obj
+    from fabkit.refold import NotAFoldError, RefoldSolver
+    from fabkit.refold.export import plot_fold_angles, save_glb_strip, save_obj_states, to_fold_model
+    from fabkit.refold.sequence import build_schedule, load_drive_file, parse_steps
+
+    _check_args(args)
+    flat, target = load_obj(args.flat), load_obj(args.target)
+    report = {"format": "fabkit.refold/1", "flat": str(args.flat), "target": str(args.target), "ok": False,
+              "problems": []}
+    try:
+        solver = RefoldSolver(flat, target, fixed_face=args.fixed_face, diagonal=args.diagonal,
+                              length_rtol=args.length_tol, solver=args.solver, flat_name=str(args.flat),
+                              target_name=str(args.target))
+    except NotAFoldError as exc:
+        report["problems"].append(str(exc))
+        report["worst_edge"] = list(exc.edge)
+        report["worst_relative_length_difference"] = exc.relative
+        if args.report:
+            write_json(args.report, report)
+        print(f"fabkit refold: {exc}", file=sys.stderr)
+        return 1
+    steps = None
+    if args.drive in ("middle-row", "all"):
+        driven, notes = solver.driven_hinges(args.drive)
+    else:
+        if not Path(args.drive).is_file():
+            from fabkit.errors import InputError
+
+            raise InputError("not middle-row, all, or an existing JSON file", source=args.drive)
+        driven, steps = load_drive_file(args.drive, flat, solver.panel)
+        notes = []
+    if args.steps:
+        if steps is not None:
+            from fabkit.errors import InputError
+
+            raise InputError("the drive file already has steps", source="--steps")
+        steps = parse_steps(args.steps, solver.panel, driven)
+    fractions, step_of_state = build_schedule(solver.panel, flat, driven, steps, args.frames)
+    t0 = time.perf_counter()
+    with progress(args, "refolding", total=len(fractions)) as advance:
+        seq = solver.solve(fractions, driven, step_of_state, check_intersections=not args.no_intersections,
+                           progress=advance, notes=notes)
+    elapsed = time.perf_counter() - t0
+
+    problems = []
+    if not seq.converged.all():
+        problems.extend(n for n in seq.notes if "did not converge" in n)
+    rel = seq.target_distance / seq.panel_size if seq.panel_size > 0 else float("nan")
+    if seq.converged.all() and not rel <= args.target_tol:
+        problems.append(f"the last state is {seq.target_distance:.3g} m from TARGET ({rel:.3g} of the panel size, "
+                        f"tolerance {args.target_tol:g})")
+    bad_states = [int(s) for s in (seq.intersections > 0).nonzero()[0]]
+    if bad_states:
+        problems.append(f"faces pass through each other in {len(bad_states)} states (first: state {bad_states[0]}, "
+                        f"{int(seq.intersections[bad_states[0]])} triangle pairs)")
+    summary = seq.summary()
+    report.update({
+        "ok": not problems, "problems": problems, "output": str(args.output),
+        "outputs": {k: v for k, v in {"fold": args.output, "glb": args.glb, "png": args.png,
+                                      "obj_dir": args.obj_dir}.items() if v},
+        "drive": args.drive, "steps": args.steps, "frames_per_step": args.frames,
+        "driven_edges": seq.edges[seq.driven], "summary": summary, "seconds": elapsed,
+        "notes": list(seq.notes), "length_tol": args.length_tol, "target_tol": args.target_tol,
+        "max_relative_length_difference": solver.max_length_mismatch,
+        "states": [{"state": s, "step": int(seq.step[s]), "loop_residual_rad": seq.residual[s],
+                    "edge_length_error": seq.edge_length_error[s], "corner_mismatch_m": seq.corner_mismatch[s],
+                    "newton_iterations": int(seq.newton_iterations[s]), "converged": bool(seq.converged[s]),
+                    "intersections": int(seq.intersections[s]),
+                    "driven_angles_deg": [math.degrees(a) for a in seq.angles[s, seq.driven]]}
+                   for s in range(seq.n_states)],
+    })
+    model = to_fold_model(seq, title=f"refold of {Path(args.flat).name} to {Path(args.target).name}")
+    with contextlib.ExitStack() as stack:
+        tmp_fold = stack.enter_context(atomic_path(args.output))
+        save_fold(model, tmp_fold)
+        if args.glb:
+            save_glb_strip(seq, stack.enter_context(atomic_path(args.glb)))
+        if args.png:
+            plot_fold_angles(seq, stack.enter_context(atomic_path(args.png)))
+        if args.report:
+            write_json(stack.enter_context(atomic_path(args.report)), to_jsonable(report))
+    if args.obj_dir:
+        save_obj_states(seq, flat, args.obj_dir)
+
+    say(args, f"refold {args.flat} -> {args.target}: {seq.n_states} states, {len(seq.driven)} driven of "
+              f"{summary['hinges']} hinges, fixed face {seq.fixed_face}; max loop residual "
+              f"{summary['max_loop_residual_rad']:.2g} rad, max edge-length error "
+              f"{summary['max_edge_length_error_rel']:.2g}, last state to target {rel:.2g} of the panel size; "
+              f"Newton {summary['newton_iterations_mean']:.1f} iterations/state; {elapsed:.2f} s")
+    for n in seq.notes:
+        say(args, f"note: {n}")
+    say(args, "wrote " + ", ".join(v for v in (args.output, args.glb, args.png, args.report, args.obj_dir) if v))
+    for p in problems:
+        print(f"fabkit refold: FAILED: {p}", file=sys.stderr)
+    return 1 if problems else 0
