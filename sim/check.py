@@ -579,12 +579,37 @@ def program_from_toolpath(tp, cell) -> Program:
     grip = tp.extra.get("grip", {}) if isinstance(tp.extra, dict) else {}
     dwell = np.array([float(grip.get("grip_dwell_s", 0.0)) if w["op"] == "grip" else
                       float(grip.get("release_dwell_s", 0.0)) if w["op"] == "release" else 0.0 for w in W])
+    states = fold_progress(np.array([w["state"] for w in W], dtype=np.float64),
+                           tuple(w["op"] for w in W), poses[:, :3, 3])
     return Program(poses=poses, q=np.array([w["q"] for w in W], dtype=np.float64).reshape(-1, 6),
                    moves=tuple(w["move"] for w in W), v=np.array([w["v"] for w in W], dtype=np.float64),
-                   a=np.array([w["a"] for w in W], dtype=np.float64),
-                   states=np.array([w["state"] for w in W], dtype=np.float64), tcp=tcp,
+                   a=np.array([w["a"] for w in W], dtype=np.float64), states=states, tcp=tcp,
                    ops=tuple(w["op"] for w in W), sha256=tp.sha256,
                    r=np.array([w["r"] for w in W], dtype=np.float64), dwell=dwell)
+
+
+def fold_progress(states: np.ndarray, ops, positions: np.ndarray) -> np.ndarray:
+    """Fractional fold states for the waypoints that subdivide a fold move.
+
+    The planner labels the points it inserts between fold states s and s+1 with the state being
+    left (s). The tool is on the straight line between the two states' grip poses there, so the
+    panel is posed at s + (TCP travel so far / travel of the whole move) to stay with the tool.
+    """
+    out = np.asarray(states, dtype=np.float64).copy()
+    n = len(out)
+    i = 0
+    while i < n:
+        j = i
+        while j + 1 < n and states[j + 1] == states[i] and ops[j + 1] == "fold":
+            j += 1
+        nxt = j + 1
+        if j > i and nxt < n and ops[nxt] in ("fold", "release") and states[nxt] == states[i] + 1:
+            seg = np.linalg.norm(np.diff(positions[i:nxt + 1], axis=0), axis=1)
+            total = seg.sum()
+            if total > 0:
+                out[i + 1:nxt] = states[i] + np.cumsum(seg)[:-1] / total
+        i = j + 1
+    return out
 
 
 def fold_file_of(tp, base_dir=None):

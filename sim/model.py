@@ -101,9 +101,9 @@ def build_cell_model(cell, panel_state: PanelModel | None = None, *, state: floa
     spec.visual.global_.offheight = 960
     window = clearance_window(cell.limits.clearance)
     world = spec.worldbody
-    world.add_light(name="sun", pos=[0, 0, 4], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
+    world.add_light(name="sun", pos=[0, 0, 4], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, castshadow=False,
                     diffuse=[0.7, 0.7, 0.7])
-    world.add_light(name="key", pos=[2, -2, 3], dir=[-1, 1, -1.5], diffuse=[0.4, 0.4, 0.4])
+    world.add_light(name="key", pos=[2, -2, 3], dir=[-1, 1, -1.5], diffuse=[0.4, 0.4, 0.4], castshadow=False)
     world.add_geom(name="floor_visual", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[4, 4, 0.05],
                    contype=0, conaffinity=0, rgba=[0.92, 0.92, 0.9, 1], group=2)
 

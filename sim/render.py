@@ -26,13 +26,18 @@ def select_gl_backend() -> str | None:
     """Choose an offscreen OpenGL backend for MuJoCo; returns its name, or None if there is none.
 
     Respects an explicit `MUJOCO_GL`. Otherwise sets `egl` when libEGL is installed, else `osmesa`
-    (with `PYOPENGL_PLATFORM=osmesa`) when libOSMesa is. Has no effect once mujoco is imported.
+    (with `PYOPENGL_PLATFORM=osmesa`) when libOSMesa is. Once mujoco is imported it can only report
+    the backend mujoco picked (None if that is GLFW without a display).
     """
+    if "mujoco" in sys.modules:  # too late to choose: report what mujoco picked at import
+        context = getattr(sys.modules["mujoco"], "GLContext", None)
+        picked = getattr(context, "__module__", "").rsplit(".", 1)[-1]
+        if picked in ("egl", "osmesa") or (picked == "glfw" and os.environ.get("DISPLAY")):
+            return picked
+        return None
     chosen = os.environ.get("MUJOCO_GL")
     if chosen:
         return chosen
-    if "mujoco" in sys.modules:
-        return None  # too late to choose; MuJoCo falls back to GLFW, which needs a display
     if ctypes.util.find_library("EGL"):
         os.environ["MUJOCO_GL"] = "egl"
         os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
@@ -123,7 +128,7 @@ def write_mp4(path, frames, fps: int = 30) -> int:
     return n
 
 
-def movie_indices(dt: np.ndarray, fps: int = 30, max_frames: int = 300) -> tuple[np.ndarray, float]:
+def movie_indices(dt: np.ndarray, fps: int = 30, max_frames: int = 240) -> tuple[np.ndarray, float]:
     """Indices of the configurations to show at `fps` in program time (sped up to fit `max_frames`).
 
     `dt` (M,): time from the previous configuration (NaN = a jump, shown as one frame). Returns the

@@ -38,6 +38,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--render", metavar="F.png|F.mp4", help="write a picture of one waypoint or a movie")
     parser.add_argument("--waypoint", type=int, metavar="K", help="waypoint to render (PNG)")
     parser.add_argument("--size", default="640x480", metavar="WxH", help="render size (default 640x480)")
+    parser.add_argument("--frames", type=int, default=240, metavar="N",
+                        help="most frames in an MP4 (30 fps; longer programs play faster; default 240)")
     parser.add_argument("--view", action="store_true", help="play the program in MuJoCo's viewer (needs a display)")
     add_common(parser)
 
@@ -64,9 +66,9 @@ def run(args) -> int:
         size = _size(args.size)
         from sim.render import select_gl_backend  # before anything imports mujoco
 
-        if select_gl_backend() is None and not os.environ.get("DISPLAY"):
+        if select_gl_backend() is None:
             raise InputError("no offscreen OpenGL backend (install libegl1 libegl-mesa0 libgl1-mesa-dri, or "
-                             "libosmesa6 with MUJOCO_GL=osmesa)", source="--render")
+                             "libosmesa6; or set MUJOCO_GL=egl before anything imports mujoco)", source="--render")
     if args.thickness is not None and not 0 < args.thickness < 0.05:
         raise InputError(f"must be in (0, 0.05) m, got {args.thickness}", source="--thickness")
     out = Path(args.output)
@@ -87,7 +89,9 @@ def run(args) -> int:
     if not args.no_panel:
         fold_path = Path(args.fold) if args.fold else fold_file_of(tp, Path(args.toolpath).parent)
         if fold_path is not None:
-            panel = _load_panel(fold_path, cell, grip_face_of(tp), args.thickness, prog)
+            # the recorded hash belongs to the file the source names, not to a --fold override
+            panel = _load_panel(fold_path, cell, grip_face_of(tp), args.thickness, prog,
+                                None if args.fold else tp.source)
 
     t0 = time.perf_counter()
     report, dense = check_program(prog, cell, panel, CheckSettings())
@@ -117,13 +121,28 @@ def run(args) -> int:
     return 0 if report.ok else 1
 
 
-def _load_panel(fold_path: Path, cell, grip_face, thickness, prog):
+def tp_source_sha(source) -> str | None:
+    """The FOLD file hash a toolpath's source records (`source.sha256`), if any."""
+    if isinstance(source, dict) and isinstance(source.get("sha256"), str) and len(source["sha256"]) == 64:
+        return source["sha256"]
+    return None
+
+
+def _load_panel(fold_path: Path, cell, grip_face, thickness, prog, prog_source=None):
     from fabkit.io.fold import load_fold
     from sim.panel import DEFAULT_THICKNESS, panel_from_fold
 
     if not fold_path.exists():
         raise InputError("FOLD file named by the toolpath's source not found (pass --fold or --no-panel)",
                          source=str(fold_path))
+    want = tp_source_sha(prog_source)
+    if want:
+        import hashlib
+
+        got = hashlib.sha256(fold_path.read_bytes()).hexdigest()
+        if got != want:
+            raise InputError(f"FOLD file has sha256 {got[:12]}…, the toolpath was planned from {want[:12]}… "
+                             "(the fold states changed since planning)", source=str(fold_path))
     model = load_fold(fold_path)
     try:
         panel = panel_from_fold(model, cell.fixture, grip_face_id=grip_face,
@@ -178,7 +197,9 @@ def _render(args, path: Path, size, cell, panel, prog, dense, report) -> dict:
         write_png(path, frame)
         say(args, f"rendered waypoint {k} to {path}")
         return {"path": str(path), "waypoint": k, "highlight": list(highlight)}
-    idx, speedup = movie_indices(dense.dt)
+    if not 2 <= args.frames <= 10000:
+        raise InputError(f"must be in 2..10000, got {args.frames}", source="--frames")
+    idx, speedup = movie_indices(dense.dt, max_frames=args.frames)
     frames = render_frames(m, cell, dense.q[idx], panel=panel, states=dense.state[idx], width=w, height=h)
     n = write_mp4(path, frames)
     say(args, f"rendered {n} frames to {path} ({speedup:.1f}x real time)")
