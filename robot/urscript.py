@@ -1,7 +1,8 @@
 """URScript program text for a planned toolpath.
 
 The program is one complete `def <name>(): ... end` block (what the controller's script ports run
-when sent as text): a header comment (source hash, robot, cell, units), `set_tcp`, the gripper output
+when sent as text; the text starts with `def`): a header comment inside it (source hash, robot,
+cell, units), `set_tcp`, the gripper output
 switched off, then per waypoint a progress write to an output integer register followed by the move
 (`movej` to the joint solution, `movel` to the TCP pose, each with a/v/r), the gripper switched on
 after the `grip` waypoint and off after `release`, each followed by a dwell. The register finally
@@ -78,18 +79,20 @@ def write_urscript(tp: Toolpath, *, program_name: str | None = None, progress_re
     setter = "set_tool_digital_out" if kind == "tool" else "set_standard_digital_out"
     name = sanitise_identifier(program_name if program_name is not None else f"fold_{tp.cell}")
     src = tp.source or {}
-    lines = [
-        f"# fabkit fold program {name}",
-        f"# toolpath sha256: {sanitise_comment(tp.sha256)}",
-        f"# source: {sanitise_comment(src.get('file', ''))} sha256 {sanitise_comment(src.get('sha256', ''))}",
-        f"# grip face: {sanitise_comment(src.get('grip_face', ''))}  fold states: {sanitise_comment(src.get('states', ''))}",
-        f"# robot: {sanitise_comment(tp.robot)}  cell: {sanitise_comment(tp.cell)}",
-        "# units: metres, radians, seconds; poses are TCP poses in the robot base frame (rotation vectors);",
-        "# movel a/v in m/s^2 and m/s, movej a/v in rad/s^2 and rad/s, blend radius r in m",
-        f"# progress: output integer register {int(progress_register)} = index of the waypoint being moved to, "
+    header = [
+        f"fabkit fold program {name}",
+        f"toolpath sha256: {sanitise_comment(tp.sha256)}",
+        f"source: {sanitise_comment(src.get('file', ''))} sha256 {sanitise_comment(src.get('sha256', ''))}",
+        f"grip face: {sanitise_comment(src.get('grip_face', ''))}  fold states: {sanitise_comment(src.get('states', ''))}",
+        f"robot: {sanitise_comment(tp.robot)}  cell: {sanitise_comment(tp.cell)}",
+        "units: metres, radians, seconds; poses are TCP poses in the robot base frame (rotation vectors);",
+        "movel a/v in m/s^2 and m/s, movej a/v in rad/s^2 and rad/s, blend radius r in m",
+        f"progress: output integer register {int(progress_register)} = index of the waypoint being moved to, "
         f"{len(tp)} when done",
-        f"# gripper: {setter}({out_no}, True) after the grip waypoint, False after release",
-        f"def {name}():",
+        f"gripper: {setter}({out_no}, True) after the grip waypoint, False after release",
+    ]
+    # the text starts with `def` (a controller's script port runs it as one program), header inside
+    lines = [f"def {name}():"] + [f"  # {h}" for h in header] + [
         f"  set_tcp(p{_list(tp.tcp)})",
         f"  {setter}({out_no}, False)",
     ]

@@ -267,7 +267,7 @@ def test_cli_writes_path_script_and_report(seq_file, tmp_path, capsys):
     assert tp.source["file"] == "grid.fold"
     assert tp.source["sha256"] == hashlib.sha256(seq_file.read_bytes()).hexdigest()
     text = script.read_text()
-    assert text.splitlines()[1] == f"# toolpath sha256: {tp.sha256}"
+    assert text.splitlines()[2] == f"  # toolpath sha256: {tp.sha256}"
     assert "set_standard_digital_out(1, True)" in text  # the ur10e cell's gripper output
     assert "grip face" in capsys.readouterr().out
 

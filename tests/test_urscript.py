@@ -59,7 +59,8 @@ def test_program_structure(toolpath):
     on = st_.index("set_tool_digital_out(0, True)")
     off = st_.index("set_tool_digital_out(0, False)", on)
     assert st_[on - 1].startswith("movel(") and st_[on + 1] == "sleep(0.5)" and off > on
-    header = text.splitlines()[:9]
+    assert text.startswith("def fabkit_fold_ur5e_bench():\n  # fabkit fold program")
+    header = text.splitlines()[:10]
     assert any(toolpath.sha256 in h for h in header) and any("ab" * 32 in h for h in header)
     assert any("units: metres, radians, seconds" in h for h in header)
     std = write_urscript(toolpath, grip_output=2, grip_output_kind="standard")
