@@ -101,11 +101,10 @@ class RefoldSolver:
             if drive == "middle-row":
                 d = middle_row_hinges(self.flat, self.panel)
                 if len(d) == 0:
-                    notes.append("no middle-row crease hinges (face_data 'middle' missing or not on a crease): "
-                                 "driving every crease hinge")
-                    drive = "all"
-                else:
-                    return d, notes
+                    raise InputError("FLAT has no middle-row crease hinges (face_data 'middle' on the faces of a "
+                                     "column crossing the creases, and 'strip'); use --drive all or a drive file",
+                                     source="--drive")
+                return d, notes
             if drive == "all":
                 d = np.flatnonzero(self.panel.edge_kind == CREASE)
                 if len(d) == 0:
