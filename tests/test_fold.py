@@ -425,3 +425,24 @@ def test_angle_just_beyond_pi_is_refused_before_writing(tmp_path):
     angle[mesh.topology.interior_edges[0]] = np.pi  # exactly 180 degrees is fine and reads back as pi
     save_fold(FoldModel.from_mesh(mesh, edges_fold_angle=angle), tmp_path / "pi.fold")
     assert load_fold(tmp_path / "pi.fold").edges_fold_angle.max() == np.pi
+
+
+def test_project_data_2d_with_nan_and_strings_round_trip(tmp_path):
+    mesh = grid(2, 1)
+    uv = np.arange(12, dtype=float).reshape(6, 2) / 7
+    uv[2, 1] = np.nan
+    model = FoldModel.from_mesh(mesh.with_data(vertex_data={"uv": uv}, face_data={"name": np.array(["a", "b"])}))
+    save_fold(model, tmp_path / "d.fold")
+    back = load_fold(tmp_path / "d.fold")
+    assert np.array_equal(back.vertices_data["uv"], uv, equal_nan=True)
+    assert back.faces_data["name"].tolist() == ["a", "b"]
+    d = json.loads((tmp_path / "d.fold").read_text())
+    assert d["vertices_fabkit:uv"][2] == [4 / 7, None]
+    d["faces_fabkit:bad"] = [1, "x"]
+    (tmp_path / "bad.fold").write_text(json.dumps(d))
+    with pytest.raises(InputError, match="faces_fabkit:bad mixes number, str"):
+        load_fold(tmp_path / "bad.fold")
+    d["faces_fabkit:bad"] = [[1, 2], [3]]
+    (tmp_path / "bad.fold").write_text(json.dumps(d))
+    with pytest.raises(InputError, match="faces_fabkit:bad is not a regular array"):
+        load_fold(tmp_path / "bad.fold")

@@ -367,16 +367,35 @@ def _angles(value: Any, key: str, source: str) -> np.ndarray:
     return out
 
 
+def _none_to_nan(x: Any) -> Any:
+    """Nested lists of numbers with JSON nulls -> the same with NaN (None stays elsewhere)."""
+    if isinstance(x, list):
+        return [_none_to_nan(v) for v in x]
+    return np.nan if x is None else x
+
+
+def _leaves(x: Any):
+    if isinstance(x, list):
+        for v in x:
+            yield from _leaves(v)
+    else:
+        yield x
+
+
 def _data_array(value: Any, key: str, source: str) -> np.ndarray:
+    """Project data (`faces_fabkit:<name>` etc.) -> a regular numpy array of one kind (numbers, with
+    nulls as NaN; booleans; or strings)."""
     rows = _list(value, key, source)
-    if rows and all(r is None or _is_number(r) for r in rows) and any(r is None for r in rows):
-        return np.array([np.nan if r is None else r for r in rows], dtype=np.float64)
+    kinds = {"number" if _is_number(v) else "null" if v is None else type(v).__name__ for v in _leaves(rows)}
+    if not (kinds <= {"number", "null"} or kinds == {"bool"} or kinds == {"str"}):
+        raise InputError(f"{key} mixes {', '.join(sorted(kinds))}; project data must be numbers, booleans "
+                         "or strings", source=source)
     try:
-        arr = np.array(rows)
+        arr = np.array(_none_to_nan(rows), dtype=np.float64 if "null" in kinds else None)
     except ValueError:
-        raise InputError(f"{key} is not a regular array", source=source) from None
-    if arr.dtype == object:
-        raise InputError(f"{key} mixes types or lengths; project data must be a regular array", source=source)
+        arr = None
+    if arr is None or arr.dtype == object:
+        raise InputError(f"{key} is not a regular array (rows of different lengths)", source=source)
     return arr
 
 
