@@ -3,7 +3,8 @@
 Leapfrog: v ← (1 − c) v + Δt F/m, x ← x + Δt v with Δt = 1 and lumped masses m from a Gershgorin
 bound of the Gauss–Newton stiffness JᵀJ (m_i = ½ Σ_j |JᵀJ|_ij, which keeps Δt² λ_max(M⁻¹K) ≤ 2 < 4,
 the leapfrog stability limit). Kinetic damping: when the kinetic energy drops (a peak has passed),
-velocities are reset to zero at the better of the last two positions and the masses are refreshed.
+velocities are reset to zero at the better of the last two positions (masses are refreshed at a reset
+at most every `mass_every` iterations: the bound changes slowly and costs a Jacobian).
 Guard rails: a non-finite or exploding energy reverts the step and doubles the masses (halves the
 effective step); too many of those in a row ends the run as "diverged".
 
@@ -46,7 +47,7 @@ def dynamic_relaxation(model: EnergyModel, X0: np.ndarray, *, max_iter: int,
                        damping: float = 0.0, planarity_weight: float | None = None,
                        record: Callable[[str, Evaluation, float], None] | None = None, phase: str = "dr",
                        deadline: float | None = None, stall_window: int = 150, stall_ratio: float = 0.9,
-                       max_reductions: int = 30) -> PhaseOutcome:
+                       max_reductions: int = 30, mass_every: int = 20) -> PhaseOutcome:
     """Relax from X0 until `done` (converged) or `switch` (hand over) holds, or progress stalls."""
     X = np.array(X0, dtype=np.float64, copy=True)
     ev = model.evaluate(X, planarity_weight=planarity_weight)
@@ -56,6 +57,7 @@ def dynamic_relaxation(model: EnergyModel, X0: np.ndarray, *, max_iter: int,
         return PhaseOutcome(X, ev, 0, "converged")
     free = model.free_mask[:, None]
     m = lumped_masses(model, X, planarity_weight)[:, None]
+    mass_it = 0
     scale = 1.0           # step reduction factor applied to the masses after a blow-up
     v = np.where(free, -0.5 * ev.gradient / (m * scale), 0.0)
     ke_prev = 0.0
@@ -82,7 +84,9 @@ def dynamic_relaxation(model: EnergyModel, X0: np.ndarray, *, max_iter: int,
             # kinetic-energy peak passed: restart from rest at the better of the last two positions
             if ev_new.energy < ev.energy:
                 X, ev = X_new, ev_new
-            m = lumped_masses(model, X, planarity_weight)[:, None]
+            if it - mass_it >= mass_every:
+                m = lumped_masses(model, X, planarity_weight)[:, None]
+                mass_it = it
             v = np.where(free, -0.5 * ev.gradient / (m * scale), 0.0)
             ke_prev = 0.0
             reductions = 0
