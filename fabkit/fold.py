@@ -181,6 +181,7 @@ class FoldModel:
             frames=tuple(frames), unit=unit, classes=tuple(classes), creator=creator, title=title,
             attributes=tuple(attributes),
         )
+        model.__dict__["topology"] = mesh.topology  # same faces, same vertex count: share, don't rebuild
         validate_fold_model(model)
         return model
 
