@@ -446,3 +446,13 @@ def test_project_data_2d_with_nan_and_strings_round_trip(tmp_path):
     (tmp_path / "bad.fold").write_text(json.dumps(d))
     with pytest.raises(InputError, match="faces_fabkit:bad is not a regular array"):
         load_fold(tmp_path / "bad.fold")
+
+
+def test_unused_vertex_in_a_fold_file_warns_with_the_file_name(tmp_path):
+    d = fold_to_json(FoldModel.from_mesh(grid(1, 1)))
+    d["vertices_coords"].append([500.0, 500.0, 0.0])
+    p = tmp_path / "u.fold"
+    p.write_text(json.dumps(d))
+    with pytest.warns(UserWarning, match=f"{p}: 1 unused vertices"):
+        m = load_fold(p)
+    assert any("unused" in n for n in m.notes) and m.n_vertices == 5

@@ -35,6 +35,7 @@ from fabkit.errors import InputError, MeshError
 from fabkit.fold import ASSIGNMENTS, FoldFrame, FoldModel, validate_fold_model
 from fabkit.io.atomic import atomic_write
 from fabkit.io.obj import read_text
+from fabkit.mesh import validate_mesh
 
 __all__ = ["load_fold", "save_fold", "parse_fold", "fold_to_json", "fold_text", "UNIT_TO_METRES", "FOLD_SPEC"]
 
@@ -536,10 +537,10 @@ def parse_fold(d: Any, source: str = "<fold>") -> FoldModel:
     )
     warnings = validate_fold_model(model, source=source)
     try:
-        mesh = model.mesh()
+        mesh_warnings = validate_mesh(model.mesh(validate=False), source=source)
     except MeshError as exc:
         raise exc.with_source(source) from None
-    extra = tuple(warnings) + tuple(mesh.warnings)
+    extra = tuple(warnings) + tuple(mesh_warnings)
     if extra:
         object.__setattr__(model, "notes", model.notes + extra)
     return model
