@@ -78,13 +78,12 @@ def strip_columns(mesh: PolyMesh, strip: np.ndarray, crease_strip: int = 1) -> t
     Starting from every edge of the crease between strips `crease_strip - 1` and `crease_strip`,
     walk through opposite quad edges to the boundary on both sides, across every strip; the faces
     met form one column and the edges crossed inside a strip are the edges that run along the
-    creases. Columns are numbered
-    in order along the crease. Raises `MeshError` when the grid is not a clean quad grid.
+    creases. Columns are numbered in order along the crease (from its lower-numbered end vertex).
+    Raises `MeshError` when the grid is not a clean quad grid.
     """
     t = mesh.topology
     if not t.is_uniform or t.face_sizes[0] != 4:
         raise MeshError("strip_columns needs an all-quad mesh")
-    F = t.face_array
     ef = mesh.edge_faces
     inner = np.all(ef >= 0, axis=1)
     sa, sb = strip[np.maximum(ef[:, 0], 0)], strip[np.maximum(ef[:, 1], 0)]
@@ -128,9 +127,7 @@ def strip_columns(mesh: PolyMesh, strip: np.ndarray, crease_strip: int = 1) -> t
                 if nb < 0:
                     break
                 if strip[nb] == s:
-                    along[e] = True
-                elif strip[nb] == strip[int(f0)]:
-                    break  # walked back to the starting crease's other side: not a grid
+                    along[e] = True  # crossed inside a strip; otherwise crossed the next crease
                 s = strip[nb]
                 f = int(nb)
     if np.any(col < 0):
