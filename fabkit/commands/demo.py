@@ -123,18 +123,24 @@ def _describe(stage: Stage) -> None:
         stage.tolerance = f"{_fmt(_first(r, 'options.tol_defect', 'tol_defect', default='-'))} / " \
                           f"{_fmt(_first(r, 'options.tol_planarity', 'tol_planarity', default='-'))}"
     elif stage.name == "unfold":
-        stage.measure = (f"mean {_fmt(_first(r, 'mean_rel_deviation', 'metrics.mean_rel_deviation', default='?'))}, "
-                         f"max {_fmt(_first(r, 'max_rel_deviation', 'metrics.max_rel_deviation', default='?'))} rel. edge dev.")
-        stage.tolerance = _fmt(_first(r, "max_error", "options.max_error", default="-"))
+        stage.measure = (f"mean {_fmt(_first(r, 'development.mean_relative_deviation', default='?'))}, "
+                         f"max {_fmt(_first(r, 'development.max_relative_deviation', default='?'))} rel. length dev., "
+                         f"{_first(r, 'development.flipped_faces', default='?')} flipped")
+        stage.tolerance = f"max <= {_fmt(_first(r, 'max_error', default='-'))}"
     elif stage.name == "refold":
-        stage.measure = (f"closure {_fmt(_first(r, 'max_loop_closure_residual', 'summary.max_loop_closure_residual', default='?'))}, "
-                         f"edge err {_fmt(_first(r, 'max_edge_length_error', 'summary.max_edge_length_error', default='?'))}")
+        stage.measure = (f"loop closure {_fmt(_first(r, 'summary.max_loop_residual_rad', default='?'))} rad, "
+                         f"edge err {_fmt(_first(r, 'summary.max_edge_length_error_rel', default='?'))}, "
+                         f"target {_fmt(_first(r, 'summary.target_distance_rel', default='?'))} of size")
+        stage.tolerance = f"target <= {_fmt(_first(r, 'target_tol', default='-'))}"
     elif stage.name == "toolpath":
         stage.measure = (f"{_first(r, 'waypoints', 'n_waypoints', default='?')} waypoints, "
+                         f"max fold step {_fmt(_first(r, 'max_fold_joint_step_deg', default='?'))} deg, "
                          f"cycle {_fmt(_first(r, 'cycle_time_s', default='?'))} s")
+        stage.tolerance = "step <= 5 deg"
     elif stage.name == "check":
-        stage.measure = (f"ok={_first(r, 'ok', default='?')}, "
-                         f"min clearance {_fmt(_first(r, 'min_clearance_m', default='?'))} m")
+        stage.measure = (f"{_first(r, 'problems', default='?')} problems in {_first(r, 'configs_checked', default='?')} "
+                         f"configurations, min clearance {_fmt(_first(r, 'min_clearance_m', default='?'))} m")
+        stage.tolerance = "0 problems"
     elif stage.name == "send":
         stage.measure = f"final pose error {_fmt(_first(r, 'final_pose_error_m', 'final_error_m', default='?'))} m"
     elif stage.name == "generate":
@@ -154,7 +160,7 @@ def run(args) -> int:
         Stage("generate", ["generate", "trifold", "-o", p("trifold.obj"), *gen_params]),
         Stage("relax", ["relax", p("trifold.obj"), "-o", p("relaxed.obj")]),
         Stage("unfold", ["unfold", p("relaxed.obj"), "-o", p("flat.obj"), "--dxf", p("flat.dxf"),
-                         "--svg", p("flat.svg"), "--png", p("unfold_error.png")]),
+                         "--svg", p("flat.svg"), "--png", p("unfold_error.png"), "--max-error", "1e-6"]),
         Stage("refold", ["refold", p("flat.obj"), p("relaxed.obj"), "-o", p("fold.fold"),
                          "--frames", str(frames), "--png", p("fold_angles.png")]),
         Stage("toolpath", ["toolpath", p("fold.fold"), "--cell", args.cell, "-o", p("path.json"),
