@@ -53,6 +53,8 @@ _DEG = 180.0 / math.pi
 class CheckSettings:
     """Step sizes of the interpolation and the singularity thresholds (all in SI units).
 
+    `max_steps_per_move`: cap on the steps of one move; `max_refine`: how much finer a linear move
+    whose joints outrun its TCP steps is re-interpolated (once).
     `wrist`/`elbow`: thresholds on |sin q5| and |sin q3| (0.05 ~ 2.9 deg from the singularity);
     `shoulder_m`: threshold on the wrist centre's distance from the base axis. `pose_tol_*`: how
     closely a waypoint's stored joints must reproduce its pose; `end_tol_rad`: how closely a linear
@@ -62,7 +64,8 @@ class CheckSettings:
     step_joint_rad: float = math.radians(1.0)
     step_tcp_m: float = 0.005
     step_rot_rad: float = math.radians(1.0)
-    max_steps_per_move: int = 20000
+    max_steps_per_move: int = 2000
+    max_refine: int = 16
     wrist: float = 0.05
     elbow: float = 0.05
     shoulder_m: float = 0.03
@@ -293,8 +296,10 @@ def interpolate_program(model, prog: Program, settings: CheckSettings = CheckSet
             path = np.vstack([prog.q[i][None], q])
             worst = float(np.max(np.abs(np.diff(path, axis=0))))
             if worst > 1.5 * settings.step_joint_rad and n < settings.max_steps_per_move:
-                # the joints move faster than the TCP here (near a singularity): refine once
-                n = int(min(math.ceil(n * worst / settings.step_joint_rad), settings.max_steps_per_move))
+                # the joints move faster than the TCP here (near a singularity): refine once, by a
+                # bounded factor (a branch flip jumps however finely the line is divided)
+                factor = min(math.ceil(worst / settings.step_joint_rad), settings.max_refine)
+                n = int(min(n * factor, settings.max_steps_per_move))
                 mv.dt[i] *= mv.steps[i] / n
                 mv.steps[i] = n
                 q, bad = _linear_interior(model, prog, i, n, mv.rotvec[i])
@@ -417,9 +422,12 @@ def _speed_events(model, cell, dense: Dense) -> list:
     for r, c in zip(rows, cols):
         s = float(speed[r, c])
         v = float(dense.move_v[r + 1])
-        events.append((int(dense.waypoint[r + 1]), "speed", JOINT_NAMES[c], s / limit[c],
-                       f"{JOINT_NAMES[c]} at {s * _DEG:.0f}°/s > {limit[c] * _DEG:.0f}°/s limit "
-                       f"(move planned at v = {v:.3g})"))
+        if s > 10 * limit[c] and dq[r, c] > 0.1:  # not a speed but a jump: say how far in how long
+            text = (f"{JOINT_NAMES[c]} jumps {dq[r, c] * _DEG:.1f}° in {dt[r] * 1e3:.2g} ms "
+                    f"(a configuration flip; limit {limit[c] * _DEG:.0f}°/s, move planned at v = {v:.3g})")
+        else:
+            text = f"{JOINT_NAMES[c]} at {s * _DEG:.0f}°/s > {limit[c] * _DEG:.0f}°/s limit (move planned at v = {v:.3g})"
+        events.append((int(dense.waypoint[r + 1]), "speed", JOINT_NAMES[c], s / limit[c], text))
     return events
 
 

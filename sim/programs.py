@@ -17,7 +17,8 @@ __all__ = ["sweep_program", "program_from_poses", "toolpath_from_program"]
 
 def program_from_poses(cell, poses_world: np.ndarray, *, move: str = "movel", v: float = 0.1, a: float = 1.2,
                        states=None, q_start=None) -> Program:
-    """A program through TCP poses given in the world frame, joints by nearest-branch IK.
+    """A program through TCP poses given in the world frame, joints by IK on the start's branch
+    (nearest solution to the previous waypoint; the first from the cell's home or `q_start`).
 
     Waypoints without an IK solution get NaN joints (the check reports them as unreachable).
     """
@@ -26,10 +27,14 @@ def program_from_poses(cell, poses_world: np.ndarray, *, move: str = "movel", v:
     P = to_base[None] @ np.asarray(poses_world, dtype=np.float64)
     Q = np.full((len(P), 6), np.nan)
     prev = np.asarray(cell.robot.home if q_start is None else q_start, dtype=np.float64)
+    branch = kin.branch_signs(model, prev)  # stay on the start's branch (shoulder, elbow, wrist)
     for i, T in enumerate(P):
         S = kin.ik(model, T, cell.tool.tcp)
         if len(S):
-            prev = Q[i] = kin.select_nearest(S, prev, model=model)
+            try:
+                prev = Q[i] = kin.select_nearest(S, prev, model=model, branch=branch)
+            except LookupError:
+                prev = Q[i] = kin.select_nearest(S, prev, model=model)
     n = len(P)
     states = np.zeros(n) if states is None else np.asarray(states, dtype=np.float64)
     return Program(poses=P, q=Q, moves=(move,) * n, v=np.full(n, v), a=np.full(n, a), states=states,
@@ -37,12 +42,18 @@ def program_from_poses(cell, poses_world: np.ndarray, *, move: str = "movel", v:
 
 
 def sweep_program(cell, n: int = 2000, *, height: float = 0.15, half_span=(0.12, 0.15), tilt_deg: float = 12.0,
-                  loops: float = 1.0, v: float = 0.1, a: float = 1.2) -> Program:
-    """`n` waypoints sweeping `height` m above the fixture origin over +-half_span (m), tool down."""
+                  loops: float = 1.0, v: float = 0.1, a: float = 1.2, centre=None) -> Program:
+    """`n` waypoints sweeping `height` m above the fixture plane over +-half_span (m), tool down.
+
+    `centre`: (x, y) of the sweep in the panel (fixture) frame; default (0.25, 0.25), the middle of
+    a 0.5 m panel laid out from the origin as `fabkit unfold` does (where the cells put their work).
+    """
     t = np.linspace(0.0, 1.0, n) * loops
     fixture = np.asarray(cell.fixture)
-    local = np.column_stack([half_span[0] * np.sin(2 * np.pi * 3 * t), half_span[1] * np.sin(2 * np.pi * 2 * t),
-                             np.full(n, height)])
+    if centre is None:
+        centre = (0.25, 0.25)
+    local = np.column_stack([centre[0] + half_span[0] * np.sin(2 * np.pi * 3 * t),
+                             centre[1] + half_span[1] * np.sin(2 * np.pi * 2 * t), np.full(n, height)])
     tilt = np.radians(tilt_deg)
     rot = (Rotation.from_euler("x", np.pi)
            * Rotation.from_rotvec(np.column_stack([tilt * np.sin(2 * np.pi * 5 * t), tilt * np.cos(2 * np.pi * 4 * t),

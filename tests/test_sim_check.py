@@ -88,7 +88,7 @@ def test_obstacle_in_the_way_names_the_pair_and_the_first_offending_waypoint(ur5
     prog = sweep_program(ur5e, 300, height=0.12)
     k = 137
     tcp_world = (ur5e.robot.base_pose @ prog.poses[k])[:3, 3]
-    centre, rho = tcp_world + np.array([0.0, 0.0, -0.02]), 0.03
+    centre, rho = tcp_world, 0.03  # a ball round the TCP of waypoint k: the tool tip dips into it
     data = tomllib.loads(UR5E.read_text())
     data["obstacles"].append({"name": "probe", "kind": "sphere", "radius": rho,
                               "pose": [*centre.tolist(), 0.0, 0.0, 0.0]})

@@ -104,6 +104,13 @@ def test_names_groups_and_margins():
     np.testing.assert_allclose(d.site_xmat[site].reshape(3, 3), want[:3, :3], atol=1e-12)
 
 
+def _tip_gap(cell):
+    """How far the tool's collision shapes stop short of the TCP along the tool axis (m)."""
+    tip = max(sh.pose[2, 3] + (sh.size[1] if sh.kind in ("cylinder", "capsule") else sh.size[-1])
+              for sh in cell.tool.shapes)
+    return float(cell.tool.tcp[2, 3] - tip)
+
+
 def _down(cell, p_panel):
     """World TCP pose pointing down onto the panel at point `p_panel` (panel frame)."""
     return cell.fixture @ _T(p_panel, (np.pi, 0, 0))
@@ -118,56 +125,64 @@ def _tool_at(cell, tcp_world):
 
 
 def test_folded_panel_is_not_its_convex_hull():
-    """A probe inside the V of a folded panel touches neither wing (one mesh would be its hull)."""
+    """The tool over face 0 of an L-folded strip (wing standing up at the crease) touches neither
+    piece; as one mesh the panel would be its hull, which contains the tool."""
     cell = _cell_with(clearance=0.0)
-    V = _v_fold(np.radians(120))  # wings at 60 deg to each other... the right wing rises steeply
+    V = _v_fold(np.radians(90))
     P = panel_model(FLAT, FACES, V[None], cell.fixture, grip_face=None)
     m, names = build_cell_model(cell, P)
-    # the point above the crease, inside the V, 2 cm up
-    target = _down(cell, [0.1, 0.05, 0.045])
-    q = _tool_at(cell, target)
+    gap = _tip_gap(cell)
+    # tool bottom 2 cm above face 0, its axis 5 cm from the standing wing: inside the L's hull
+    q = _tool_at(cell, _down(cell, [0.05, 0.05, 0.02 - gap]))
+    tool = {sh.name for sh in cell.tool.shapes}
     found = _contacts(m, names, q, P)
-    assert not [k for k, dist in found.items() if "face" in k[1] and dist < 0], found
-    # pushed down onto the crease it touches the left face
-    q2 = _tool_at(cell, _down(cell, [0.05, 0.05, -0.005]))
+    assert not [k for k, dist in found.items() if k[0] in tool and k[1].startswith("face") and dist < 0], found
+    assert found[("suction_cup", "face_0")] == pytest.approx(0.02 - 0.0005, abs=1e-6)  # half the sheet thickness
+    # pushed 3 mm into face 0 it touches it
+    q2 = _tool_at(cell, _down(cell, [0.05, 0.05, -gap - 0.003]))
     found = _contacts(m, names, q2, P)
-    assert any(k[1] == "face_0" and d < 0 for k, d in found.items()), found
+    assert found[("suction_cup", "face_0")] == pytest.approx(-0.0035, abs=1e-6)
 
 
 def test_grip_face_contact_is_excluded_and_other_faces_are_not():
     cell = _cell_with(clearance=0.01)
     P = panel_model(FLAT, FACES, FLAT[None], cell.fixture, grip_face=1)
     m, names = build_cell_model(cell, P)
-    # the suction cup (ending 2 mm short of the TCP) pressed 3 mm into the middle of face 1 (grip face)
-    q = _tool_at(cell, _down(cell, [0.15, 0.05, -0.005]))
+    # the tool pressed 3 mm into the middle of face 1 (the grip face)
+    gap = _tip_gap(cell)
+    q = _tool_at(cell, _down(cell, [0.15, 0.05, -gap - 0.003]))
     found = _contacts(m, names, q, P)
     assert not any("face_1" in k for k in found), found
     # the same press on face 0 is a collision
-    q = _tool_at(cell, _down(cell, [0.05, 0.05, -0.005]))
+    q = _tool_at(cell, _down(cell, [0.05, 0.05, -gap - 0.003]))
     found = _contacts(m, names, q, P)
-    assert any(k[1] == "face_0" and d < 0 for k, d in found.items()), found
+    assert found[("suction_cup", "face_0")] == pytest.approx(-0.0035, abs=1e-6)
 
 
 def test_clearance_margin_reports_the_distance():
     cell = _cell_with(clearance=0.02)
-    tcp_world = _down(cell, [0.0, 0.0, 0.2])
-    # the wall 7 mm beside the suction cup (radius 25 mm)
-    wall = Shape(name="probe_wall", kind="box", pose=_T(tcp_world[:3, 3] + [0.025 + 0.007 + 0.01, 0, 0]),
-                 size=(0.01, 0.03, 0.03))
-    cell = _cell_with(obstacles=[wall], clearance=0.02)
+    cup = next(sh for sh in cell.tool.shapes if sh.name == "suction_cup")
+    tcp_world = _down(cell, [0.25, 0.25, 0.2])
+    # a small block level with the cup's middle, its face 7 mm beside the cup's side
+    up = cell.tool.tcp[2, 3] - cup.pose[2, 3]  # cup centre above the TCP (tool pointing down)
+    centre = tcp_world[:3, 3] + [0.0, 0.0, up] + tcp_world[:3, 0] * (cup.size[0] + 0.007 + 0.004)
+    block = Shape(name="probe_block", kind="box", pose=_T(centre, Rotation.from_matrix(tcp_world[:3, :3]).as_rotvec()),
+                  size=(0.004, 0.01, 0.9 * cup.size[1]))
+    cell = _cell_with(obstacles=[block], clearance=0.02)
     m, names = build_cell_model(cell)
     found = _contacts(m, names, _tool_at(cell, tcp_world))
-    assert found[("suction_cup", "probe_wall")] == pytest.approx(0.007, abs=1e-6)
+    assert found[("suction_cup", "probe_block")] == pytest.approx(0.007, abs=1e-6)
 
 
-def test_shoulder_is_not_paired_with_the_mounting_table_but_the_upper_arm_is():
+def test_shoulder_is_never_paired_with_the_environment_but_other_links_are():
+    """The shoulder housing turns about the base axis only (its distance to the mounting table is a
+    layout constant): it never contacts obstacles; the other links do in random configurations."""
     cell = load_cell(CELLS / "ur5e_bench.toml")
     m, names = build_cell_model(cell)
-    q = np.array(cell.robot.home, float)
-    found = _contacts(m, names, q)
-    assert not any("shoulder" == a for a, _ in found)
-    q[1] = 0.0  # upper arm horizontal, elbow bent down into the bench
-    q[2] = 1.6
-    found = _contacts(m, names, q)
-    assert any(a in ("elbow", "forearm") and b in ("bench", "fixture_block") and d < 0
-               for (a, b), d in found.items()), found
+    Q = np.random.default_rng(3).uniform(-np.pi, np.pi, (300, 6))
+    pairs = set()
+    for q in Q:
+        pairs |= {k for k, d in _contacts(m, names, q).items() if d < 0}
+    env = {o.name for o in cell.obstacles}
+    assert not [(a, b) for a, b in pairs if "shoulder" in (a, b) and (b in env or a in env)]
+    assert {"upper_arm", "forearm", "wrist_3"} <= {a for a, b in pairs if b in env}
