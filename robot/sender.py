@@ -210,9 +210,12 @@ class Sender:
             mode = self._wait_dashboard("robotmode", ("RUNNING",), 30.0)
         safety = self.call("dashboard", "safetystatus")
         if "PROTECTIVE_STOP" in safety and s.unlock:
-            reply = self.call("dashboard", "unlock protective stop")
-            if reply != "Protective stop releasing":
-                raise _Fault(f"preflight: unlock refused: {reply!r}")
+            # a controller refuses for 5 s after the stop: wait that out, then give up
+            t_end = time.monotonic() + 6.0
+            while (reply := self.call("dashboard", "unlock protective stop")) != "Protective stop releasing":
+                if time.monotonic() > t_end:
+                    raise _Fault(f"preflight: unlock refused: {reply!r}")
+                time.sleep(0.5)
             self.call("dashboard", "close safety popup")
             safety = self.call("dashboard", "safetystatus")
         if safety != "Safetystatus: NORMAL":
@@ -312,6 +315,11 @@ class Sender:
                              3 * self._expected_duration(start, stop) + 30.0)
         dp, dr = pose_distance(st["tcp_pose"], self.wps[stop - 1]["pose"])
         if dp > max(self.s.final_tol_m, 1e-5) or dr > max(self.s.final_tol_rad, 1e-4):
+            for _ in range(3):  # the receive stream may lag the control stream: let a safety stop show
+                time.sleep(0.03)
+                st = self.poll()
+                if st["runtime_state"] != RUNTIME_PLAYING:
+                    raise _Fault("the control script stopped (program stopped on the controller)")
             raise _Fault(f"the path ended {dp * 1e3:.3f} mm / {math.degrees(dr):.3f} deg away from waypoint {stop - 1}")
         self.last_completed = stop - 1
         self._on_progress(self.last_completed, st)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-CELL = ROOT / "cells" / "ur5e_bench.toml"
+CELL = ROOT / "tests" / "data" / "ursim_bench.toml"  # fixed, so shared cell edits do not move the tests
 
 
 def external_host() -> str | None:
@@ -118,7 +118,7 @@ def demo_toolpath(n_fold: int = 56, r_max: float = 0.01):
         q_prev = q
         lin = mv == "movel"
         wps.append({"pose": [float(x) for x in p], "q": [float(x) for x in q], "move": mv,
-                    "v": 0.25 if lin else 1.05, "a": 1.2 if lin else 1.4, "r": float(r[i]), "state": 0,
+                    "v": 0.4 if lin else 1.5, "a": 2.0 if lin else 3.0, "r": float(r[i]), "state": 0,
                     "op": ops[i]})
     return Toolpath(robot=model.name, cell=cell.name, tcp=tuple(matrix_to_pose(tcp)), source={"test": "demo"},
                     waypoints=tuple(wps))

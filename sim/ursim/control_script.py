@@ -171,11 +171,12 @@ class ControlScript:
                 self._write_async(0)  # move_thread: signal_async_operation_started()
 
                 def marker(v):
-                    if v > 0:  # progress 0 is the start signal already written
+                    if v > 0 and self.running:  # progress 0 is the start signal already written
                         self._write_async(v)
 
                 def done(completed, token=token):
-                    if self._move_active and self._move_token == token:
+                    # a killed program writes nothing more (its threads die with it)
+                    if self.running and self._move_active and self._move_token == token:
                         self._move_active = False
                         self._write_async(-1)  # signal_async_operation_finished()
                 ctrl.arm.run(traj, on_marker=marker, on_done=done)

@@ -286,9 +286,9 @@ class Controller:
             self.safety_event_time = time.monotonic()
             self.last_error = f"protective stop: {reason}"
             self.log(f"PROTECTIVE STOP: {reason}")
-            self.arm.halt()
             if self.program is not None and self.program.running:
                 self.program.kill("protective stop")
+            self.arm.halt()
 
     def emergency_stop(self, reason: str = "emergency stop button") -> None:
         with self.lock:
@@ -296,9 +296,9 @@ class Controller:
             self.safety_event_time = time.monotonic()
             self.last_error = f"emergency stop: {reason}"
             self.log(f"EMERGENCY STOP: {reason}")
-            self.arm.halt()
             if self.program is not None and self.program.running:
                 self.program.kill("emergency stop")
+            self.arm.halt()
 
     def release_emergency_stop(self) -> None:
         with self.lock:

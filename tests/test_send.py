@@ -1,0 +1,145 @@
+"""`fabkit send` end to end on the controller stand-in (or FABKIT_UR_HOST): a demo toolpath with a
+real MuJoCo check runs to completion and ends on its last waypoint; a protective stop mid-path
+exits 1 within 2 s naming the last completed waypoint and `--resume-from` finishes the job; bad
+checks are refused before anything is sent."""
+import json
+import re
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from _ursim import CELL, ROOT, StandIn, demo_toolpath, external_host, write_job
+from fabkit.cli import main as fabkit_main
+
+HOST = external_host() or "127.0.0.176"
+pytestmark = pytest.mark.network
+needs_standin = pytest.mark.skipif(external_host() is not None, reason="fault injection needs the stand-in")
+
+
+@pytest.fixture(scope="module")
+def standin(tmp_path_factory):
+    if external_host():
+        yield None
+        return
+    s = StandIn(HOST, "--cell", str(CELL), "--unlock-delay", "1", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
+    yield s
+    s.stop()
+
+
+def run_fabkit(capsys, *args):
+    """`fabkit ARGS` in this process (ur_rtde still runs in the sender's worker process)."""
+    capsys.readouterr()
+    rc = fabkit_main(list(args))
+    out, err = capsys.readouterr()
+    return subprocess.CompletedProcess(args, rc, out, err)
+
+
+@pytest.fixture(scope="module")
+def job(tmp_path_factory):
+    tp = demo_toolpath()
+    path, check = write_job(tmp_path_factory.mktemp("job"), tp)
+    assert json.loads(check.read_text())["ok"], "the demo toolpath must pass the real check"
+    return tp, path, check
+
+
+def test_send_runs_the_demo_toolpath_to_completion(standin, job, tmp_path, capsys):
+    tp, path, check = job
+    log, report = tmp_path / "send.log", tmp_path / "report.json"
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", HOST, "--log", str(log), "--report", str(report))
+    assert r.returncode == 0, r.stderr
+    assert f"sent {len(tp)} of {len(tp)} waypoints" in r.stdout
+    rep = json.loads(report.read_text())
+    assert rep["ok"] and rep["last_completed"] == len(tp) - 1 and rep["chunks_sent"] == 2
+    assert rep["final_error_m"] < 1e-6 and rep["final_error_rad"] < 1e-6
+    assert rep["quantisation_m"] < 1e-6 and rep["quantisation_rad"] < 1e-5
+    events = [json.loads(line) for line in log.read_text().splitlines()]
+    calls = [e["call"] for e in events if "call" in e]
+    assert calls[:4] == ["connect_dashboard", "dashboard", "dashboard", "dashboard"]
+    assert calls.count("move_path") == 2 and "state" in calls and "set_tcp" in calls
+    if standin is not None:
+        state = standin.state()
+        assert np.abs(np.array(state["q"]) - tp.waypoints[-1]["q"]).max() < 1e-9
+        assert state["tcp_offset"] == pytest.approx(list(tp.tcp), abs=1e-12)
+
+
+@needs_standin
+def test_protective_stop_mid_path_then_resume(standin, job, tmp_path, capsys):
+    tp, path, check = job
+    report = tmp_path / "report.json"
+    assert standin.admin("at_progress 20 protective_stop injected by the test")["ok"]
+    proc = subprocess.Popen([sys.executable, "-m", "fabkit", "send", str(path), "--check", str(check), "--host", HOST,
+                             "--report", str(report)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    try:
+        t_stop = None
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            if standin.state()["safety_mode"] == "PROTECTIVE_STOP":
+                t_stop = time.monotonic()
+                break
+            time.sleep(0.01)
+        assert t_stop is not None, "the protective stop never happened"
+        out, err = proc.communicate(timeout=30)
+        t_exit = time.monotonic()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 1, err
+    assert t_exit - t_stop < 2.0
+    m = re.search(r"stopped: protective stop; last completed waypoint (\d+) of 59; continue with --resume-from (\d+)",
+                  err)
+    assert m, err
+    last = int(m.group(1))
+    assert 17 <= last <= 20 and int(m.group(2)) == last + 1
+    assert json.loads(report.read_text())["last_completed"] == last
+    q_stop = np.array(standin.state()["q"])
+    time.sleep(0.2)
+    assert np.array_equal(np.array(standin.state()["q"]), q_stop)  # the arm stays stopped
+    # resume: unlock (the stand-in's unlock delay is 1 s here) and finish the job
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", HOST, "--resume-from", str(last + 1), "--unlock")
+    assert r.returncode == 0, r.stderr
+    assert f"sent {len(tp) - last - 1} of {len(tp)} waypoints" in r.stdout
+    assert np.abs(np.array(standin.state()["q"]) - tp.waypoints[-1]["q"]).max() < 1e-9
+
+
+@needs_standin
+def test_resume_far_from_the_path_is_refused(standin, job, capsys):
+    tp, path, check = job
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", HOST, "--resume-from", "30")
+    assert r.returncode == 2
+    assert "--resume-from 30: the TCP is" in r.stderr and r.stderr.count("\n") == 1
+
+
+def test_failed_check_is_refused(job, tmp_path, capsys):
+    tp, path, check = job
+    bad = tmp_path / "CHECK.json"
+    data = json.loads(check.read_text())
+    data.update(ok=False, problems=[{"waypoint": 12, "kind": "collision", "detail": "wrist_3 x bench"}])
+    bad.write_text(json.dumps(data))
+    r = run_fabkit(capsys, "send", str(path), "--check", str(bad), "--host", "127.0.0.254")
+    assert r.returncode == 1
+    assert "refusing to send" in r.stderr and "waypoint 12: collision" in r.stderr
+
+
+def test_check_of_another_toolpath_is_refused(job, tmp_path, capsys):
+    tp, path, check = job
+    other = tmp_path / "CHECK.json"
+    data = json.loads(check.read_text())
+    data["toolpath_sha256"] = "0" * 64
+    other.write_text(json.dumps(data))
+    r = run_fabkit(capsys, "send", str(path), "--check", str(other), "--host", "127.0.0.254")
+    assert r.returncode == 2
+    assert "does not match the toolpath" in r.stderr and r.stderr.count("\n") == 1
+
+
+def test_edited_toolpath_is_refused(job, tmp_path, capsys):
+    tp, path, check = job
+    edited = tmp_path / "PATH.json"
+    d = json.loads(path.read_text())
+    d["waypoints"][5]["pose"][2] += 0.01  # moved after checking: the file's hash no longer matches
+    edited.write_text(json.dumps(d))
+    r = run_fabkit(capsys, "send", str(edited), "--check", str(check), "--host", "127.0.0.254")
+    assert r.returncode == 2 and "sha256" in r.stderr
