@@ -1,9 +1,9 @@
 """Where per-panel work runs: in-process, a process pool, or a dask.distributed cluster.
 
 All three take the same picklable task function and arguments and return results in input
-order, so a run gives the same numbers wherever it ran. Worker processes get single-threaded
-BLAS (set in the environment before they import numpy) so no reduction order depends on the
-number of threads.
+order, so a run gives the same numbers wherever it ran: every task runs with single-threaded
+BLAS (threadpoolctl), in-process or in a worker, so no reduction order depends on the number of
+threads.
 """
 from __future__ import annotations
 
@@ -12,9 +12,17 @@ import os
 from concurrent.futures import Executor, ProcessPoolExecutor
 from typing import Callable, Iterable, Iterator, Sequence
 
-__all__ = ["panel_executor", "map_ordered"]
+__all__ = ["panel_executor", "map_ordered", "single_threaded"]
 
 _SINGLE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def single_threaded(fn: Callable, item):
+    """Run `fn(item)` with BLAS/OpenMP limited to one thread (same arithmetic everywhere)."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        return fn(item)
 
 
 class _Serial(Executor):
@@ -64,7 +72,7 @@ def panel_executor(jobs: int = 1, scheduler: str | None = None) -> Iterator[Exec
 def map_ordered(executor: Executor, fn: Callable, items: Sequence, progress: Callable | None = None,
                 timeout: float | None = None) -> list:
     """Submit `fn(item)` for every item and return the results in input order."""
-    futures = [executor.submit(fn, item) for item in items]
+    futures = [executor.submit(single_threaded, fn, item) for item in items]
     out = []
     for f in futures:
         out.append(f.result(timeout=timeout))
