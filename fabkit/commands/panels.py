@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from fabkit.commands._common import add_common, progress, say, write_report
@@ -39,7 +40,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="max unfold deviation per panel, relative (default 1e-3)")
     p.add_argument("--max-rounds", type=int, default=12, help="feedback rounds after the first unfold (default 12)")
     p.add_argument("--symmetric", action="store_true", help="solve half (x < 0) and mirror: exactly symmetric result")
-    p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1: in-process)")
+    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                   help="worker processes (default: one per CPU; 1 runs in-process)")
     p.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address (instead of --jobs)")
     p.add_argument("--no-cut-files", action="store_true", help="skip the DXF/SVG cut files")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
