@@ -89,6 +89,27 @@ def test_close_to_developable_with_clear_curved_creases(params):
         assert sv[2] <= 1e-12 * sv[0]
 
 
+@pytest.mark.parametrize("rows", [2, 4])
+def test_more_rows_per_strip(rows):
+    m = trifold_panel(resolution=8, rows=rows)
+    assert (m.n_faces, m.n_vertices) == (3 * 8 * rows, (8 + 1) * (3 * rows + 1))
+    assert len(m.boundary_loops) == 1 and np.all(m.face_sizes == 4)
+    st, col, mid = m.face_data["strip"], m.face_data["column"], m.face_data["middle"]
+    assert np.bincount(st).tolist() == [8 * rows] * 3
+    middle = np.flatnonzero(mid)
+    assert sorted(st[middle]) == [0, 1, 2] and np.all(col[middle] == 4)
+    # the creases are the same curves as in the one-row panel (compared by their own distances,
+    # since the panel frame depends on all faces)
+    one = trifold_panel(resolution=8)
+    for a, b in zip(creases(m), creases(one)):
+        pa, pb = m.vertices[polyline(m, a)], one.vertices[polyline(one, b)]
+        da = np.linalg.norm(pa[:, None] - pa[None], axis=2)
+        db = np.linalg.norm(pb[:, None] - pb[None], axis=2)
+        assert np.allclose(da, db, atol=1e-12) or np.allclose(da, db[::-1, ::-1], atol=1e-12)
+    assert np.abs(measures.interior_angle_defect(m)).max() < 0.05
+    assert measures.face_planarity(m).max() < 0.01  # the middle strip's inner lines are Catmull–Clark lines
+
+
 def test_height_changes_the_two_fold_angles():
     m = trifold_panel(height=0.5)
     d = measures.dihedral_angles(m)
@@ -107,6 +128,9 @@ def test_height_changes_the_two_fold_angles():
     (dict(resolution=1), "resolution"),
     (dict(resolution=1000), "resolution"),
     (dict(resolution=2.5), "resolution"),
+    (dict(rows=3), "rows"),
+    (dict(rows=32, resolution=16), "rows"),
+    (dict(rows=0), "rows"),
 ])
 def test_bad_parameters(kwargs, word):
     with pytest.raises(InputError, match=word):

@@ -19,8 +19,8 @@ Presets (parameters in brackets, defaults after '='; lengths in metres, angles i
            offset2 to 3*width/5, fold2 to -fold, skew2 to skew
   trifold  the tri-fold panel of the paper's Fig. 3 (bevel a box, delete its faces, extrude the
            hole borders, Catmull-Clark with sharp creases, keep one edge band, retopologise)
-           [length=1.6 depth=0.8 height=depth bevel=0.2 extrude=0.12 resolution=16]; the box is
-           length x depth x height, the panel about bevel*length long, resolution = columns
+           [length=1.6 depth=0.8 height=depth bevel=0.2 extrude=0.12 resolution=16 rows=1]; the box
+           is length x depth x height, the panel about bevel*length long, resolution = columns
   canopy   the multi-panel workflow's wave-like canopy low-poly (3 vertices across: planar arcs
            after Catmull-Clark; input of `fabkit panels`) [length=6 width=2.4 height=2.2 arch=0.5
            wave=0.35 waves=2 stations=9 sweep=0.3]
@@ -76,7 +76,7 @@ def _build_trifold(p: dict):
 
     p["height"] = p["depth"] if p["height"] is None else p["height"]
     return trifold_panel(length=p["length"], depth=p["depth"], height=p["height"], bevel=p["bevel"],
-                         extrude=p["extrude"], resolution=p["resolution"])
+                         extrude=p["extrude"], resolution=p["resolution"], rows=p["rows"])
 
 
 def _build_canopy(p: dict):
@@ -128,6 +128,7 @@ PRESETS: dict[str, tuple[Callable, dict[str, Param]]] = {
         "bevel": Param(float, 0.2, "Conway bevel fraction, in (0, 1/2)", True),
         "extrude": Param(float, 0.12, "width of the outer strips [m]", True),
         "resolution": Param(int, 16, "columns along the creases (rounded up to a power of 2)", True),
+        "rows": Param(int, 1, "rows of faces per strip (a power of 2)", True),
     }),
     "canopy": (_build_canopy, {
         "length": Param(float, 6.0, "canopy length along x [m]", True),
@@ -218,7 +219,7 @@ def _estimate_faces(preset: str, p: dict) -> int:
         base = 6 if preset == "cube" else 2 * p["sides"]
         return base * 4 ** min(p["subdivide"], 20)
     if preset == "trifold":
-        return 3 * p["resolution"]
+        return 3 * p["resolution"] * p["rows"]
     return 0
 
 

@@ -21,7 +21,8 @@ f. Retopologise "so rulings don't intersect except at conical parts":
        would meet.
    f2. in each of the three strips, dissolve the edges that run along the creases, so every strip
        is one row of faces and every face spans its strip between two consecutive rulings (the
-       planar-quad representation of a curved-crease panel, §2.1).
+       planar-quad representation of a curved-crease panel, §2.1). With `rows` > 1 every
+       (C/rows)-th of these lines is kept instead.
    f3. dissolve the vertices left in the middle of the rulings (two edges each), so every face is
        a quad: two crease/boundary vertices on each side.
 
@@ -32,7 +33,8 @@ the middle strip is the smooth Catmull–Clark surface between the two creases a
 developable — making it exactly developable is the relax stage's job.
 
 Tags (docs/CONTRACTS.md "Panel tags"): face_data "strip" (0, 1, 2 across), "column" (0..C-1 along
-the creases), "middle" (the three faces of column C // 2).
+the creases), "middle" (the faces of column C // 2, one per strip: with `rows` > 1 the one in the
+strip's middle row).
 """
 from __future__ import annotations
 
@@ -72,13 +74,17 @@ def trifold_network(length: float, depth: float, height: float, bevel: float, ex
     return catmull_clark(e, levels, crease_key="extruded")
 
 
-def strip_columns(mesh: PolyMesh, strip: np.ndarray, crease_strip: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """Walk the quad grid across each strip: `(column_of_face, along_edges)`.
+def strip_columns(mesh: PolyMesh, strip: np.ndarray, crease_strip: int = 1
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Walk the quad grid across each strip: `(column_of_face, row_of_face, along_index)`.
 
     Starting from every edge of the crease between strips `crease_strip - 1` and `crease_strip`,
     walk through opposite quad edges to the boundary on both sides, across every strip; the faces
     met form one column and the edges crossed inside a strip are the edges that run along the
-    creases. Columns are numbered in order along the crease (from its lower-numbered end vertex).
+    creases. Columns are numbered in order along the crease (from its lower-numbered end vertex);
+    rows inside each strip from the side the walk entered it (0 next to the starting crease or, for
+    a strip beyond another crease, next to that crease). `along_index` (per edge) is k >= 1 for the
+    k-th such edge line crossed inside a strip and 0 for every other edge.
     Raises `MeshError` when the grid is not a clean quad grid.
     """
     t = mesh.topology
@@ -109,16 +115,19 @@ def strip_columns(mesh: PolyMesh, strip: np.ndarray, crease_strip: int = 1) -> t
         prev = k
     he = t.halfedge_edge
     col = np.full(mesh.n_faces, -1, np.int64)
-    along = np.zeros(mesh.n_edges, dtype=bool)
+    row = np.zeros(mesh.n_faces, np.int64)
+    along = np.zeros(mesh.n_edges, dtype=np.int64)
     for c_idx, k in enumerate(order):
         e0 = crease[k]
         for f0 in ef[e0]:
             f, e = int(f0), int(e0)
             s = strip[f]
+            k = 0
             for _ in range(mesh.n_faces):
                 if col[f] not in (-1, c_idx):
                     raise MeshError(f"face {f} lies in two columns: the grid is not clean")
                 col[f] = c_idx
+                row[f] = k
                 # the edge opposite to e in quad f
                 es = he[4 * f:4 * f + 4]
                 pos = int(np.flatnonzero(es == e)[0])
@@ -127,23 +136,28 @@ def strip_columns(mesh: PolyMesh, strip: np.ndarray, crease_strip: int = 1) -> t
                 if nb < 0:
                     break
                 if strip[nb] == s:
-                    along[e] = True  # crossed inside a strip; otherwise crossed the next crease
+                    k += 1
+                    along[e] = k  # crossed inside a strip; otherwise crossed the next crease
+                else:
+                    k = 0
                 s = strip[nb]
                 f = int(nb)
     if np.any(col < 0):
         raise MeshError(f"{int(np.sum(col < 0))} faces are not reached from the crease: the grid is not clean")
-    return col, along
+    return col, row, along
 
 
 def trifold_panel(length: float = 1.6, depth: float = 0.8, height: float | None = None, bevel: float = 0.2,
-                  extrude: float = 0.12, resolution: int = 16) -> PolyMesh:
+                  extrude: float = 0.12, resolution: int = 16, rows: int = 1) -> PolyMesh:
     """The Fig. 3 tri-fold panel (module docstring): three strips, two curved creases, C columns.
 
     length, depth, height [m] > 0: the box of step a (x, y, z extents; height defaults to depth;
     the creases run along `length`); bevel in (0, 1/2): Conway bevel fraction (the panel is about
     ``bevel * length`` long); extrude [m] > 0: width of the outer strips, smaller than the holes
-    allow; resolution: at least this many columns (rounded up to a power of 2; 2..64).
-    Raises `InputError` for impossible values.
+    allow; resolution: at least this many columns (rounded up to a power of 2; 2..64); rows: rows
+    of faces per strip, a power of 2 up to the number of columns (1: every face spans its strip;
+    more keep every (C/rows)-th Catmull–Clark line along the creases, giving the solver vertices
+    inside the strips). Raises `InputError` for impossible values.
     """
     height = depth if height is None else height
     length, depth, height, bevel, extrude = (float(v) for v in (length, depth, height, bevel, extrude))
@@ -153,6 +167,10 @@ def trifold_panel(length: float = 1.6, depth: float = 0.8, height: float | None 
     _check(int(resolution) == resolution and 2 <= resolution <= MAX_RESOLUTION,
            f"resolution must be an integer from 2 to {MAX_RESOLUTION}, got {resolution}")
     levels = int(np.ceil(np.log2(resolution)))
+    n_lines = 2 ** levels  # Catmull–Clark rows per strip before f2
+    _check(int(rows) == rows and rows >= 1 and n_lines % int(rows) == 0,
+           f"rows must be a power of 2 from 1 to the number of columns ({n_lines}), got {rows}")
+    step = n_lines // int(rows)
 
     net = trifold_network(length, depth, height, bevel, extrude, levels)
     # f1: keep the band of the edge between the top (+z) and front (-y) faces, running along x
@@ -167,12 +185,12 @@ def trifold_panel(length: float = 1.6, depth: float = 0.8, height: float | None 
     on_top = height / 2 - cen[:, 2] < cen[:, 1] + depth / 2  # nearer the top plane than the front plane
     strip = np.where(~ext, 1, np.where(on_top, 0, 2)).astype(np.int64)
 
-    # f2: one row of faces per strip; f3: drop the vertices left inside the rulings
-    col, along = strip_columns(panel, strip)
+    # f2: `rows` rows of faces per strip (one by default); f3: drop the vertices left inside the rulings
+    col, row, along = strip_columns(panel, strip)
     panel = PolyMesh(panel.vertices, (panel.face_indices, panel.face_offsets),
-                     face_data={"strip": strip, "column": col}, validate=False)
+                     face_data={"strip": strip, "column": col, "row": row // step}, validate=False)
     corners = _corner_mask(panel)
-    merged = dissolve_edges(panel, along)
+    merged = dissolve_edges(panel, (along > 0) & (along % step != 0))
     mid = np.flatnonzero((merged.topology.vertex_valence == 2) & ~corners)
     panel, _ = dissolve_vertices(merged, mid)
     if not np.all(panel.face_sizes == 4):
@@ -194,7 +212,7 @@ def trifold_panel(length: float = 1.6, depth: float = 0.8, height: float | None 
     if V[np.unique(panel.topology.face_array[st == 2])][:, 1].mean() < V[np.unique(panel.topology.face_array[st == 0])][:, 1].mean():
         st = 2 - st  # strips increase along +y
     n_col = int(colc.max()) + 1
-    middle = ((colc == n_col // 2)).astype(np.int64)
+    middle = ((colc == n_col // 2) & (panel.face_data["row"] == int(rows) // 2)).astype(np.int64)
     return PolyMesh(V, (panel.face_indices, panel.face_offsets),
                     face_data={"strip": st.astype(np.int64), "column": colc.astype(np.int64), "middle": middle})
 
