@@ -1,0 +1,128 @@
+"""`fabkit send` under link faults injected into the stand-in: the RTDE connection dropped and the
+stream stalled mid-path end with exit 1 in bounded time (ur_rtde may segfault in its worker; the
+command survives), a second control client gets IN_USE, and a controller too slow to answer trips
+the per-call timeout instead of hanging."""
+import json
+import re
+import time
+
+import pytest
+
+from _ursim import CELL, StandIn, demo_toolpath, external_host, write_job
+from fabkit.cli import main as fabkit_main
+
+HOST = "127.0.0.177"
+pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not None,
+                                                      reason="fault injection needs the stand-in")]
+
+
+@pytest.fixture(scope="module")
+def standin(tmp_path_factory):
+    s = StandIn(HOST, "--cell", str(CELL), "--unlock-delay", "0.2", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
+    yield s
+    s.stop()
+
+
+@pytest.fixture(scope="module")
+def job(tmp_path_factory):
+    tp = demo_toolpath()
+    return (tp, *write_job(tmp_path_factory.mktemp("job"), tp))
+
+
+@pytest.fixture(autouse=True)
+def healthy(standin):
+    """Every test starts and ends with a healthy controller."""
+    standin.admin("normal")
+    yield
+    standin.admin("normal")
+    standin.admin("estop_release")
+
+
+def send(capsys, *args):
+    capsys.readouterr()
+    t0 = time.monotonic()
+    rc = fabkit_main(["send", *args])
+    out, err = capsys.readouterr()
+    return rc, out, err, time.monotonic() - t0
+
+
+@pytest.mark.parametrize("fault, reason", [
+    ("drop_rtde", r"(controller link lost|stalled|stopped)"),
+    ("stall 30", r"RTDE stream stalled"),
+])
+def test_link_faults_mid_path_end_in_bounded_time(standin, job, tmp_path, capsys, fault, reason):
+    tp, path, check = job
+    assert standin.admin(f"at_progress 15 {fault}")["ok"]
+    report = tmp_path / "r.json"
+    rc, out, err, dt = send(capsys, str(path), "--check", str(check), "--host", HOST, "--report", str(report))
+    assert rc == 1, err
+    assert dt < 30
+    assert re.search(reason, err), err
+    rep = json.loads(report.read_text())
+    assert 0 <= rep["last_completed"] <= 16
+    assert f"last completed waypoint {rep['last_completed']} of {len(tp) - 1}" in err
+
+
+def test_second_control_client_gets_in_use(standin, job, capsys):
+    import rtde_control
+
+    tp, path, check = job
+    holder = rtde_control.RTDEControlInterface(HOST, -1.0, rtde_control.RTDEControlInterface.FLAG_UPLOAD_SCRIPT,
+                                               50002, -1)
+    try:
+        rc, out, err, dt = send(capsys, str(path), "--check", str(check), "--host", HOST)
+    finally:
+        holder.disconnect()
+    assert rc == 1
+    assert "One of the RTDE input registers are already in use" in err
+
+
+def test_slow_controller_trips_the_call_timeout(standin, job):
+    from robot.sender import SendSettings, send_toolpath
+
+    tp, path, check = job
+    assert standin.admin("slow 3")["ok"]  # every dashboard and RTDE setup reply 3 s late
+    t0 = time.monotonic()
+    result = send_toolpath(tp, SendSettings(host=HOST, connect_timeout_s=1.0, call_timeout_s=1.0))
+    assert time.monotonic() - t0 < 10
+    assert not result.ok
+    assert result.reason.startswith("controller link lost: ur_rtde call connect_dashboard did not return within 1 s")
+    assert result.last_completed == -1
+
+
+def test_emergency_stop_is_refused_by_preflight(standin, job, capsys):
+    tp, path, check = job
+    assert standin.admin("estop")["ok"]
+    rc, out, err, dt = send(capsys, str(path), "--check", str(check), "--host", HOST)
+    assert rc == 1 and "preflight: 'Safetystatus: ROBOT_EMERGENCY_STOP'" in err
+    standin.admin("estop_release")  # the robot is powered off afterwards: --power-on brings it back
+    rc, out, err, dt = send(capsys, str(path), "--check", str(check), "--host", HOST)
+    assert rc == 1 and "Robotmode: POWER_OFF" in err and "--power-on" in err
+    rc, out, err, dt = send(capsys, str(path), "--check", str(check), "--host", HOST, "--power-on", "--chunk", "30")
+    assert rc == 0, err
+    assert "(3 path chunk(s))" in out  # waypoints 0-29, 29-58, 58-59
+
+
+def test_worker_is_killed_when_it_hangs():
+    """A worker call that does not return in time: the worker is killed, the caller gets WorkerError."""
+    import socket
+
+    from robot.rtde_worker import RTDEWorker, WorkerError
+
+    # a "dashboard" that accepts connections (kernel backlog) but never greets: ur_rtde waits for it
+    mute = socket.socket()
+    mute.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    mute.bind(("127.0.0.178", 29999))
+    mute.listen(4)
+    w = RTDEWorker("127.0.0.178")
+    try:
+        t0 = time.monotonic()
+        with pytest.raises(WorkerError, match="did not return within 0.5 s"):
+            w.call("connect_dashboard", timeout=0.5)
+        assert time.monotonic() - t0 < 3
+        assert not w.proc.is_alive()
+        with pytest.raises(WorkerError):
+            w.call("state")
+    finally:
+        w.kill()
+        mute.close()
