@@ -25,7 +25,7 @@ from fabkit.errors import InputError
 from fabkit.mesh import faces_to_csr
 
 __all__ = ["FaceGroups", "FaceFrames", "face_groups", "group_centroids_normals", "row_frames", "middle_row",
-           "middle_row_frames", "frames_from_axes", "fold_positions"]
+           "middle_row_frames", "face_frames_of", "frames_from_axes", "fold_positions"]
 
 #: Directions shorter than this (m) are treated as undefined.
 _TINY = 1e-12
@@ -209,3 +209,16 @@ def middle_row_frames(model, source: str | None = None) -> FaceFrames:
     row = middle_row(groups, source)
     frames = row_frames(groups, fold_positions(model), row)
     return FaceFrames(faces=groups.ids[row], strips=groups.strip[row], frames=frames)
+
+
+def face_frames_of(model, face_id: int, source: str | None = None) -> FaceFrames:
+    """Frames of one face (by face id) in every fold state, for files without middle-row tags:
+    x runs along the face's first edge (a row of one face)."""
+    groups = face_groups(model.faces_vertices, model.faces_data, source)
+    try:
+        g = groups.index_of(face_id)
+    except KeyError:
+        raise InputError(f"face {face_id} does not exist (faces {int(groups.ids.min())}..{int(groups.ids.max())})",
+                         source=source) from None
+    frames = row_frames(groups, fold_positions(model), [g])
+    return FaceFrames(faces=groups.ids[[g]], strips=groups.strip[[g]], frames=frames)

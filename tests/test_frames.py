@@ -4,7 +4,7 @@ import pytest
 
 from fabkit.errors import InputError
 from fabkit.fold import FoldModel
-from fabkit.frames import face_groups, middle_row, middle_row_frames, row_frames
+from fabkit.frames import face_frames_of, face_groups, middle_row, middle_row_frames, row_frames
 from fabkit.io.fold import load_fold, save_fold
 from fold_fixtures import folded_grid_model, grid_panel
 
@@ -105,3 +105,17 @@ def test_zero_area_face_is_refused():
     V[:, 1] = 0.0  # squash everything onto a line
     with pytest.raises(InputError, match="zero area"):
         row_frames(g, V, middle_row(g))
+
+
+def test_one_face_without_tags():
+    model = folded_grid_model(n_states=3)
+    untagged = FoldModel.from_mesh(model.mesh().with_vertices(model.vertices_coords), frames=model.frames)
+    object.__setattr__(untagged, "faces_data", {})
+    ff = face_frames_of(untagged, 8)
+    assert ff.faces.tolist() == [8] and ff.frames.shape == (3, 1, 4, 4)
+    # same origin and normal as the middle-row frame; x along the face's first edge (+x here)
+    row = middle_row_frames(model).of_face(8)
+    np.testing.assert_allclose(ff.frames[:, 0, :3, 2:], row[:, :3, 2:], atol=1e-15)
+    np.testing.assert_allclose(ff.frames[0, 0, :3, 0], [1, 0, 0], atol=1e-15)
+    with pytest.raises(InputError, match="face 99 does not exist"):
+        face_frames_of(untagged, 99, source="x.fold")

@@ -303,3 +303,18 @@ def test_cli_bad_cell_exit_2(seq_file, tmp_path, capsys):
     rc = fabkit_main(["toolpath", str(seq_file), "--cell", str(bad), "-o", str(tmp_path / "p.json")])
     err = capsys.readouterr().err
     assert rc == 2 and f"{bad}: robot.model" in err and len(err.strip().splitlines()) == 1
+
+
+def test_cli_untagged_file_needs_a_grip_face(tmp_path, capsys):
+    from fabkit.fold import FoldModel
+
+    model = folded_grid_model(n_states=4, angles=[math.radians(30)] * 2)
+    untagged = FoldModel.from_mesh(model.mesh().with_vertices(model.vertices_coords), frames=model.frames)
+    object.__setattr__(untagged, "faces_data", {})
+    seq = tmp_path / "untagged.fold"
+    save_fold(untagged, seq)
+    out = tmp_path / "p.json"
+    rc = fabkit_main(["toolpath", str(seq), "--cell", str(CELL_FILES[0]), "-o", str(out)])
+    assert rc == 2 and "no middle-row faces" in capsys.readouterr().err and not out.exists()
+    rc = fabkit_main(["toolpath", str(seq), "--cell", str(CELL_FILES[0]), "-o", str(out), "--grip-face", "8", "-q"])
+    assert rc == 0 and Toolpath.load(out).source["grip_face"] == 8
