@@ -431,9 +431,12 @@ def _speed_events(model, cell, dense: Dense) -> list:
     return events
 
 
-def _collision_events(cell, panel: PanelModel | None, dense: Dense):
-    """MuJoCo contacts at every configuration. Returns (events, min clearance, its pair, model)."""
-    m, names = build_cell_model(cell, panel, state=float(dense.state[0]) if len(dense.state) else 0.0)
+def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None):
+    """MuJoCo contacts at every configuration. Returns (events, min clearance, its pair, names).
+
+    `built`: a `(MjModel, CellNames)` from `build_cell_model(cell, panel)` to reuse.
+    """
+    m, names = built if built is not None else build_cell_model(cell, panel)
     d = mujoco.MjData(m)
     group = names.geom_group
     robot = (group == GROUP_ARM) | (group == GROUP_TOOL)

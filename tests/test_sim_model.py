@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from robot import kinematics as kin
 from robot.cell import Shape, load_cell
-from sim.model import GROUP_ARM, GROUP_ENV, GROUP_PANEL, GROUP_TOOL, build_cell_model
+from sim.model import CLEARANCE_WINDOW, GROUP_ARM, GROUP_ENV, GROUP_PANEL, GROUP_TOOL, build_cell_model
 from sim.panel import interpolate_poses, panel_model, panel_pieces, piece_poses
 
 CELLS = Path(__file__).resolve().parent.parent / "cells"
@@ -91,7 +91,7 @@ def test_names_groups_and_margins():
     assert group["wrist_3"] == GROUP_ARM and group["suction_cup"] == GROUP_TOOL
     assert group["fold_table"] == GROUP_ENV and group["face_0"] == GROUP_PANEL
     margin = dict(zip(names.geom, m.geom_margin))
-    assert margin["fold_table"] == margin["face_1"] == pytest.approx(cell.limits.clearance + 0.05)
+    assert margin["fold_table"] == margin["face_1"] == pytest.approx(cell.limits.clearance + CLEARANCE_WINDOW)
     assert margin["wrist_3"] == margin["suction_cup"] == 0.0
     d = mujoco.MjData(m)
     mujoco.mj_kinematics(m, d)

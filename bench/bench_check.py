@@ -1,0 +1,116 @@
+"""Toolpath check speed: configurations checked per second and a 2,000-waypoint program end to end.
+
+Programs: 2,000-waypoint tool-down sweeps over the panel in both shipped cells, with a 15-face
+folded grid panel in the model (so the panel pieces are in the broad phase). `loops` sets how far
+apart the waypoints are: 1 loop ~ 1 mm apart (no interpolation needed), 4 loops ~ 4 mm apart with
+more rotation per step (interpolated steps and continuous IK on the linear moves).
+
+Measured:
+- `configs_per_s`: collision (mj_kinematics + mj_collision, contact classification) + joint limits +
+  singularity factors over the interpolated configurations, the path `check_program` uses
+  (one Python loop over MuJoCo, numpy for limits/singularities over all configurations at once),
+  with the cell model built beforehand (`build_s`, once per check);
+- `baseline_per_s`: the straightforward per-configuration loop (mj_forward, then limits and
+  singularity factors called per configuration); `speedup` = configs_per_s / baseline_per_s;
+- `full_check_s`: `check_program` end to end (interpolation with IK, all checks, model build).
+Targets: >= 20,000 configurations/s on one core; a 2,000-waypoint program in <= 1 s.
+"""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from bench.common import best_time, report
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _panel(cell):
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    from fold_fixtures import folded_grid_model
+
+    from sim.panel import panel_from_fold
+
+    model = folded_grid_model(n_states=3, angles=[math.radians(30)] * 2, clamp_strip=0)
+    return panel_from_fold(model, cell.fixture, grip_face_id=None)
+
+
+def _baseline(cell, panel, Q) -> float:
+    """Per configuration: mj_forward, contacts read, limits and singularity factors one by one."""
+    from robot import kinematics as kin
+    from sim.model import build_cell_model
+
+    m, names = build_cell_model(cell, panel)
+    d = mujoco.MjData(m)
+    lo, hi = np.array(cell.model.q_min), np.array(cell.model.q_max)
+    bad = 0
+    t0 = time.perf_counter()
+    for q in Q:
+        d.qpos[:] = q
+        mujoco.mj_forward(m, d)
+        for c in d.contact[:d.ncon]:
+            bad += c.dist < 0
+        bad += int(np.any((q < lo) | (q > hi)))
+        f = kin.singularity_factors(cell.model, q)
+        bad += int(abs(f.wrist) < 0.05 or abs(f.elbow) < 0.05 or abs(f.shoulder) < 0.03)
+    return time.perf_counter() - t0
+
+
+def main() -> dict:
+    from robot.cell import load_cell
+    from sim.check import CheckSettings, _collision_events, _limit_events, _singular_events, check_program, \
+        interpolate_program
+    from sim.model import build_cell_model
+    from sim.programs import sweep_program
+
+    rows = []
+    for cell_file in ("ur5e_bench.toml", "ur10e_fold_table.toml"):
+        cell = load_cell(ROOT / "cells" / cell_file)
+        panel = _panel(cell)
+        for loops in (1, 4):
+            prog = sweep_program(cell, 2000, height=0.08, half_span=(0.06, 0.08), loops=loops, v=0.1)
+            dense = interpolate_program(cell.model, prog, CheckSettings())
+            M = len(dense.q)
+
+            built = build_cell_model(cell, panel)  # once per cell; not part of the per-configuration rate
+
+            def batched():
+                _collision_events(cell, panel, dense, built)
+                _limit_events(cell.model, dense)
+                _singular_events(cell.model, dense, CheckSettings())
+
+            t_batched = best_time(batched, repeat=3)
+            t_base = min(_baseline(cell, panel, dense.q) for _ in range(2))
+            report_obj = {}
+
+            def full():
+                report_obj["r"], _ = check_program(prog, cell, panel)
+
+            t_full = best_time(full, repeat=3)
+            r = report_obj["r"]
+            rows.append({
+                "cell": cell.name, "loops": loops, "waypoints": len(prog), "configs": M,
+                "ok": r.ok, "configs_per_s": M / t_batched, "baseline_per_s": M / t_base,
+                "speedup": t_base / t_batched, "build_s": best_time(lambda: build_cell_model(cell, panel)),
+                "full_check_s": t_full,
+                "full_configs_per_s": M / t_full,
+            })
+    worst_rate = min(r["configs_per_s"] for r in rows)
+    worst_full = max(r["full_check_s"] for r in rows)
+    meta = {"target_configs_per_s": 20000, "target_full_check_s": 1.0, "min_configs_per_s": worst_rate,
+            "max_full_check_s": worst_full, "meets_targets": worst_rate >= 20000 and worst_full <= 1.0,
+            "baseline": "per-configuration mj_forward + per-configuration limits/singularity calls"}
+    out = report("bench_check", rows, meta)
+    print(f"min configs/s {worst_rate:,.0f} (target 20,000); slowest 2,000-waypoint check {worst_full:.3f} s "
+          f"(target 1 s)")
+    return out
+
+
+if __name__ == "__main__":
+    main()
