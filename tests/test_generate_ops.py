@@ -265,3 +265,15 @@ def test_edge_loops_and_their_removal():
     assert len(edge_loop(c, 0)) == 2
     with pytest.raises(MeshError, match="boundary"):
         remove_edge_loops(g, [0])
+
+
+def test_extrude_chosen_edges_and_vector():
+    g = grid(2, 1, 2.0, 1.0)
+    bottom = [e for e, (a, b) in enumerate(g.edges) if g.vertices[a, 1] == -0.5 and g.vertices[b, 1] == -0.5]
+    t = extrude_border_edges(g, 0.3, edges=bottom, direction="vector", vector=[0.0, 0.0, -1.0])
+    assert (t.n_vertices, t.n_faces) == (6 + 3, 2 + 2)
+    assert np.allclose(t.vertices[6:], g.vertices[[0, 2, 4]] + [0, 0, -0.3])
+    with pytest.raises(MeshError, match="not on the boundary"):
+        extrude_border_edges(g, 0.3, edges=g.topology.interior_edges)
+    with pytest.raises(ValueError, match="direction"):
+        extrude_border_edges(g, 0.3, direction="sideways")

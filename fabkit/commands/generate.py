@@ -54,6 +54,16 @@ def _build_reflect(p: dict):
     k = p["creases"]
     if k not in (1, 2):
         raise InputError(f"--creases must be 1 or 2, got {k}", source="preset reflect")
+    # the builder speaks radians; check the degrees here so the message names what the user typed
+    if not 0 < p["arc"] < 360:
+        raise InputError(f"--arc must be between 0 and 360 degrees, got {p['arc']:g}", source="preset reflect")
+    for name in ("fold", "fold2"):
+        if p[name] is not None and not 0 < abs(p[name]) < 180:
+            raise InputError(f"--{name} must be non-zero and between -180 and 180 degrees, got {p[name]:g}",
+                             source="preset reflect")
+    for name in ("skew", "skew2"):
+        if p[name] is not None and not abs(p[name]) < 90:
+            raise InputError(f"--{name} must be between -90 and 90 degrees, got {p[name]:g}", source="preset reflect")
     width = p["width"]
     if k == 1:
         extra = [f"--{n}" for n in ("offset2", "fold2", "skew2") if p[n] is not None]
