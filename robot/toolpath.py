@@ -380,7 +380,11 @@ def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions =
     """
     model, tcp = cell.model, cell.tool.tcp
     F = np.asarray(face_frames, dtype=np.float64)
+    if F.ndim != 3 or F.shape[1:] != (4, 4) or not np.all(np.isfinite(F)):
+        raise InputError(f"face frames must be a finite (S, 4, 4) array, got shape {F.shape}")
     S = F.shape[0]
+    if S < 2:
+        raise InputError(f"a fold needs at least 2 fold states (flat and folded), got {S}")
     q_home = np.asarray(cell.robot.home, dtype=np.float64)
     T_home = K.fk_tcp(model, q_home, tcp)
     auto_yaw = options.tool_yaw is None and _tool_is_axial(tcp)

@@ -318,3 +318,9 @@ def test_cli_untagged_file_needs_a_grip_face(tmp_path, capsys):
     assert rc == 2 and "no middle-row faces" in capsys.readouterr().err and not out.exists()
     rc = fabkit_main(["toolpath", str(seq), "--cell", str(CELL_FILES[0]), "-o", str(out), "--grip-face", "8", "-q"])
     assert rc == 0 and Toolpath.load(out).source["grip_face"] == 8
+
+
+def test_one_state_is_not_a_fold():
+    cell = load_cell(CELL_FILES[0])
+    with pytest.raises(InputError, match="at least 2 fold states"):
+        plan_toolpath(cell, np.eye(4)[None])
