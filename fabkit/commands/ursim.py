@@ -33,6 +33,9 @@ def add_arguments(parser) -> None:
                         help="inject a fault (repeatable): protective_stop, estop, program_stop, drop_rtde, "
                         "stall:SECONDS, slow:DELAY[,EVERY]")
     parser.add_argument("--admin-port", type=int, default=30020, help="fault-injection admin port (default 30020)")
+    parser.add_argument("--rt-priority", type=int, default=0, metavar="N",
+                        help="run the 500 Hz tick thread SCHED_FIFO at priority N (needs the privilege; "
+                        "default 0 = normal scheduling)")
     parser.add_argument("--log", metavar="FILE", help="append the controller log to FILE")
     parser.add_argument("-v", "--verbose", action="store_true", help="print the controller log to stderr")
 

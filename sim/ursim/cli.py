@@ -53,7 +53,8 @@ def config_from_args(args):
     cfg = ControllerConfig(host=args.host, version=_version(args.version), model=model, q0=q0,
                            robot_mode=ROBOT_POWER_OFF if args.power_off else ROBOT_RUNNING,
                            remote_control=not args.local_control, unlock_delay_s=args.unlock_delay, ports=ports,
-                           cell=cell, collision=collision, log_file=args.log, verbose=args.verbose)
+                           cell=cell, collision=collision, log_file=args.log, verbose=args.verbose,
+                           rt_priority=args.rt_priority)
     return cfg
 
 

@@ -9,6 +9,7 @@ the state here under `Controller.lock`.
 from __future__ import annotations
 
 import json
+import os
 import sys
 import threading
 import time
@@ -55,6 +56,7 @@ class ControllerConfig:
     collision: object = None  # callable q -> name of the contact pair or None
     log_file: str | None = None
     verbose: bool = False
+    rt_priority: int = 0  # > 0: run the tick thread SCHED_FIFO at this priority (needs the privilege)
 
     @property
     def cb3(self) -> bool:
@@ -345,6 +347,12 @@ class Controller:
             return self.tick_index
 
     def _tick_loop(self) -> None:
+        if self.cfg.rt_priority > 0:
+            try:  # tid 0 = this thread only; the servers stay at normal priority
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self.cfg.rt_priority))
+                self.log(f"tick thread runs SCHED_FIFO priority {self.cfg.rt_priority}")
+            except (PermissionError, OSError, AttributeError) as exc:
+                self.log(f"real-time priority not available ({exc}); tick thread at normal priority")
         period = self.period
         t0 = time.monotonic()
         k = 0
