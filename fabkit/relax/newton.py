@@ -31,27 +31,26 @@ from fabkit.relax.dynamic import PhaseOutcome
 from fabkit.relax.energy import EnergyModel, Evaluation
 
 
-def _solve_spd(JJt: sp.csr_matrix, mu: float, b: np.ndarray) -> np.ndarray | None:
-    """Solve (J Jᵀ + μI) y = b with SuperLU (symmetric mode); None when it fails or is not finite.
+def _factor_spd(JJt: sp.csr_matrix, mu: float):
+    """SuperLU factorisation of J Jᵀ + μI (symmetric mode), or None when it fails.
 
-    Reusing the previous factorisation as a conjugate-gradient preconditioner was tried and measured:
+    Reusing an earlier factorisation as a conjugate-gradient preconditioner was tried and measured:
     the weak directions change too much from step to step for it to converge in a few iterations.
     """
     A = (JJt + sp.identity(JJt.shape[0], format="csr") * mu).tocsc()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", spla.MatrixRankWarning)
-            lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-            y = lu.solve(b)
+            return spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
     except (RuntimeError, spla.MatrixRankWarning):
         return None
-    return y if np.all(np.isfinite(y)) else None
 
 
 def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Callable[[Evaluation], bool],
                  x_ref: np.ndarray | None = None, closeness: float = 0.0,
                  record: Callable[[str, Evaluation, float], None] | None = None,
-                 deadline: float | None = None, gamma: float = 100.0, mu_min: float = 1e-15, mu_max: float = 1e-2, radius0: float = 0.05,
+                 deadline: float | None = None, gamma: float = 100.0, mu_min: float = 1e-15, mu_max: float = 1e-2, radius0: float = 0.05, second_order: bool = True,
+                 grow_above: float = 0.5,
                  max_failures: int = 12) -> PhaseOutcome:
     """Damped Gauss–Newton iterations from X0 until `done` holds (see module docstring).
 
@@ -84,8 +83,9 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
         y0 = model.pack(X)
         accepted = False
         while failures <= max_failures:
-            y = _solve_spd(JJt, mu_rel * diag_scale, rhs)
-            if y is None:
+            lu = _factor_spd(JJt, mu_rel * diag_scale)
+            y = lu.solve(rhs) if lu is not None else None
+            if y is None or not np.all(np.isfinite(y)):
                 boost *= 100.0
                 mu_rel *= 100.0
                 failures += 1
@@ -101,9 +101,19 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
             r_try, _ = model.residuals_and_jacobian(X_try, need_jacobian=False)
             phi_try = float(r_try @ r_try)
             rho = (phi - phi_try) / pred if pred > 0 else -1.0
+            if second_order and np.isfinite(phi_try) and rho < 0.75:
+                # second-order correction: one more minimum-norm step from the trial point with the same
+                # factorisation pulls a long step back onto the curved constraint manifold
+                y2 = lu.solve(r_try)
+                X_soc = model.unpack(y0 + step - J.T @ y2, X)
+                r_soc, _ = model.residuals_and_jacobian(X_soc, need_jacobian=False)
+                phi_soc = float(r_soc @ r_soc)
+                if np.isfinite(phi_soc) and phi_soc < phi_try:
+                    X_try, phi_try = X_soc, phi_soc
+                    rho = (phi - phi_try) / pred if pred > 0 else -1.0
             if np.isfinite(phi_try) and phi_try < phi and rho > 0.25:
                 accepted = True
-                if rho > 0.75:
+                if rho > grow_above:
                     radius = max(radius, 2.0 * size)
                     boost = max(boost / 10.0, 1.0)
                 break

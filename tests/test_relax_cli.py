@@ -1,0 +1,96 @@
+"""`fabkit relax` end to end: exit codes 0/1/2, output file contract, JSON report."""
+import json
+
+import numpy as np
+import pytest
+
+from fabkit.cli import main
+from fabkit.generate import reflect_panel
+from fabkit.io.obj import load_obj, save_obj
+
+from relax_meshes import perturbed
+
+
+@pytest.fixture
+def noisy_obj(tmp_path):
+    truth = reflect_panel(columns=10, rows=3)
+    noisy, _ = perturbed(truth, 0.01, seed=9)
+    path = tmp_path / "noisy.obj"
+    save_obj(noisy, path)
+    return path, noisy
+
+
+def test_relax_writes_same_topology_and_a_report(tmp_path, noisy_obj, capsys):
+    src, noisy = noisy_obj
+    out, rep = tmp_path / "out.obj", tmp_path / "r.json"
+    assert main(["relax", str(src), "-o", str(out), "--report", str(rep)]) == 0
+    assert "converged" in capsys.readouterr().out
+    res = load_obj(out)
+    assert res.faces_list() == noisy.faces_list() and res.n_vertices == noisy.n_vertices
+    assert set(res.face_data) == set(noisy.face_data)
+    r = json.loads(rep.read_text())
+    assert r["converged"] is True and r["output"] == str(out)
+    f = r["final"]
+    assert f["max_abs_angle_defect_rad"] <= 1e-8 and f["max_planarity"] <= 1e-8
+    assert len(f["vertex_angle_defect_rad"]) == noisy.n_vertices and len(f["face_planarity"]) == noisy.n_faces
+    assert f["max_displacement_m"] > 0 and f["mean_displacement_m"] > 0
+    h = r["history"]
+    assert h and {"max_defect", "mean_defect", "max_planarity", "mean_planarity", "kinetic_energy"} <= set(h[0])
+    assert any(x["kinetic_energy"] > 0 for x in h)
+    assert r["options"]["tol_defect"] == 1e-8
+
+
+def test_boundary_row_option_keeps_the_input_topology(tmp_path):
+    from fabkit.generate import trifold_panel
+
+    src, out = tmp_path / "tri.obj", tmp_path / "row.obj"
+    tri = trifold_panel(resolution=16)
+    save_obj(tri, src)
+    assert main(["relax", str(src), "-o", str(out), "--boundary", "row-in-plane", "-q"]) == 0
+    res = load_obj(out)
+    assert res.faces_list() == tri.faces_list() and res.n_vertices == tri.n_vertices
+
+
+def test_not_converged_exits_1_and_writes_nothing(tmp_path, noisy_obj, capsys):
+    src, _ = noisy_obj
+    out, rep = tmp_path / "out.obj", tmp_path / "r.json"
+    code = main(["relax", str(src), "-o", str(out), "--max-iter", "2", "--newton-max-iter", "1", "--no-fallback",
+                 "--report", str(rep)])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "did not converge" in err and "max |angle defect|" in err and "no output written" in err
+    assert not out.exists()
+    assert json.loads(rep.read_text())["converged"] is False
+    code = main(["relax", str(src), "-o", str(out), "--max-iter", "2", "--newton-max-iter", "1", "--no-fallback",
+                 "--write-unconverged", "-q"])
+    assert code == 1 and out.exists()
+
+
+def _write(path, text):
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("name,text,needle", [
+    ("nonmanifold.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 1 1 1\n"
+                        "f 1 2 3\nf 2 1 4\nf 1 2 5\n", "non-manifold"),
+    ("nan.obj", "v 0 0 0\nv 1 0 nan\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\nf 1 2 3 4\nf 2 5 6 3\n", "non-finite"),
+    ("single.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n", "1 face"),
+    ("strip.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\nf 1 2 5 4\nf 2 3 6 5\n",
+     "no interior vertex"),
+])
+def test_bad_input_exits_2_with_one_line(tmp_path, capsys, name, text, needle):
+    src = _write(tmp_path / name, text)
+    out = tmp_path / "out.obj"
+    assert main(["relax", str(src), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and needle in err and name in err
+    assert not out.exists()
+
+
+def test_bad_option_exits_2(tmp_path, noisy_obj, capsys):
+    src, _ = noisy_obj
+    assert main(["relax", str(src), "-o", str(tmp_path / "o.obj"), "--tol-defect", "0"]) == 2
+    assert "tol_defect" in capsys.readouterr().err
+    assert main(["relax", str(src), "-o", str(tmp_path / "o.obj"), "--fixed", "99999"]) == 2
+    assert "does not exist" in capsys.readouterr().err
