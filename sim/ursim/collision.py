@@ -13,7 +13,7 @@ from sim.model import GROUP_ARM, GROUP_ENV, GROUP_TOOL, build_cell_model
 
 
 class CellCollision:
-    """Callable `q -> "geomA × geomB"` of the first penetrating contact, or None."""
+    """Callable `q -> ("geomA × geomB", depth m)` of the deepest penetrating contact, or None."""
 
     def __init__(self, cell):
         self.model, self.names = build_cell_model(cell)
@@ -22,7 +22,7 @@ class CellCollision:
         self.robot = (g == GROUP_ARM) | (g == GROUP_TOOL)
         self.env = g == GROUP_ENV
 
-    def __call__(self, q) -> str | None:
+    def __call__(self, q) -> tuple[str, float] | None:
         m, d = self.model, self.data
         d.qpos[:6] = np.asarray(q, dtype=np.float64)
         mujoco.mj_kinematics(m, d)
@@ -31,9 +31,11 @@ class CellCollision:
         if not n:
             return None
         con = d.contact
+        worst = None
         for g1, g2, dist in zip(con.geom1[:n], con.geom2[:n], con.dist[:n]):
             if dist >= 0:
                 continue  # the environment margin reports near misses too: only penetration stops
             if (self.robot[g1] and (self.env[g2] or self.robot[g2])) or (self.robot[g2] and self.env[g1]):
-                return f"{self.names.geom[g1]} × {self.names.geom[g2]}"
-        return None
+                if worst is None or -dist > worst[1]:
+                    worst = (f"{self.names.geom[g1]} × {self.names.geom[g2]}", float(-dist))
+        return worst

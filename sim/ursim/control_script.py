@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import re
 import threading
+import time
 
 import numpy as np
 
@@ -66,6 +67,7 @@ class ControlScript:
         self._move_token = 0
         self._thread = threading.Thread(target=self._main, name="rtde_control", daemon=True)
         self.watchdog: float | None = None
+        self._watchdog_set = 0.0
 
     # ---- program interface -------------------------------------------------------------------
     def start(self) -> None:
@@ -120,6 +122,7 @@ class ControlScript:
                 last = ctrl.wait_tick(last)
                 if self._killed.is_set():
                     break
+                self._check_watchdog()
                 cmd = self._i(0)
                 if cmd != last_cmd and cmd not in REALTIME:
                     ctrl.log(f"rtde_control: command {cmd}")
@@ -150,6 +153,16 @@ class ControlScript:
     def _check(self) -> None:
         if self._killed.is_set():
             raise Killed()
+
+    def _check_watchdog(self) -> None:
+        """`rtde_set_watchdog(input_int_register_0, f, "stop")`: stop when the client goes quiet."""
+        if not self.watchdog:
+            return
+        name = f"input_int_register_{self.off_i}"
+        quiet = time.monotonic() - max(self.ctrl.input_written.get(name, 0.0), self._watchdog_set)
+        if quiet > 1.0 / self.watchdog:
+            raise PlanError(f"RTDE watchdog: {name} not updated for {quiet:.3f} s "
+                            f"(minimum {self.watchdog:g} Hz): program stopped")
 
     # ---- moves -------------------------------------------------------------------------------
     def _plan(self, waypoints: list[Waypoint]):
@@ -187,6 +200,7 @@ class ControlScript:
             ctrl.arm.run(traj, on_done=lambda ok: finished.set())
         while not finished.wait(0.05):
             self._check()
+            self._check_watchdog()
         self._check()
 
     def _stop_async_move(self, deceleration: float | None = None) -> None:
@@ -288,7 +302,8 @@ class ControlScript:
             ctrl.protective_stop("protective_stop() called by the program")
             raise Killed()
         elif cmd == 35:
-            self.watchdog = d(0)
+            self.watchdog = d(0) if d(0) > 0 else None
+            self._watchdog_set = time.monotonic()
         elif cmd == 36:
             try:
                 q = self._ik(vec(0))

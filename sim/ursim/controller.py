@@ -92,6 +92,7 @@ class Controller:
         self.paused = False
         self.loaded_program: str | None = None
         self.owners: dict[str, int] = {}
+        self.input_written: dict[str, float] = {}  # last RTDE write per input (for the watchdog)
         self.rtde_conns: list = []
         self.stall_until = 0.0
         self.reply_delay = 0.0
@@ -105,6 +106,7 @@ class Controller:
         self._tcp_speed = np.zeros(6)
         self._flange = np.eye(4)
         self._q_for_pose = None
+        self._contact_depth = 0.0
         self._update_pose()
         self._getters = self._make_getters()
         self._thread = threading.Thread(target=self._tick_loop, name="ursim-tick", daemon=True)
@@ -187,6 +189,9 @@ class Controller:
         """Set input variables from one RTDE data package (atomically) and act on the IO ones."""
         with self.lock:
             self.inputs.update(values)
+            now = time.monotonic()
+            for name in values:
+                self.input_written[name] = now
             if "standard_digital_output_mask" in values:
                 m = int(values["standard_digital_output_mask"])
                 self.digital_out = (self.digital_out & ~m) | (int(values.get("standard_digital_output", 0)) & m)
@@ -334,9 +339,13 @@ class Controller:
             self.protective_stop("joint position limit")
             return
         if self.cfg.collision is not None:
+            # a new or deepening contact stops the arm; moving out of a contact is allowed (as a
+            # controller lets the arm back away after a collision stop)
             hit = self.cfg.collision(arm.q)
-            if hit:
-                self.protective_stop(f"collision: {hit}")
+            depth = hit[1] if hit else 0.0
+            if hit and depth > self._contact_depth + 1e-4:
+                self.protective_stop(f"collision: {hit[0]} ({depth * 1e3:.1f} mm)")
+            self._contact_depth = depth
 
     # ---- the tick ----------------------------------------------------------------------------
     def wait_tick(self, last: int, timeout: float = 0.5) -> int:

@@ -1,0 +1,99 @@
+"""The stand-in with a cell: a move into the bench ends in a protective stop from a MuJoCo contact
+(safety mode and status bits as a controller reports them), the RTDE watchdog stops a program whose
+client goes quiet, and `fabkit ursim` refuses bad options with one line (exit 2)."""
+import time
+
+import numpy as np
+import pytest
+
+from _ursim import CELL, StandIn, external_host
+from fabkit.cli import main as fabkit_main
+
+HOST = "127.0.0.179"
+pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not None,
+                                                      reason="needs the stand-in")]
+
+
+@pytest.fixture(scope="module")
+def standin(tmp_path_factory):
+    s = StandIn(HOST, "--cell", str(CELL), "--unlock-delay", "0.2", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
+    yield s
+    s.stop()
+
+
+@pytest.fixture(scope="module")
+def clients(standin):
+    import rtde_control
+    import rtde_receive
+
+    ctrl = rtde_control.RTDEControlInterface(HOST, -1.0, rtde_control.RTDEControlInterface.FLAG_UPLOAD_SCRIPT,
+                                             50002, -1)
+    recv = rtde_receive.RTDEReceiveInterface(HOST)
+    yield ctrl, recv
+    ctrl.disconnect()
+    recv.disconnect()
+
+
+def _recover(standin, ctrl, recv):
+    import dashboard_client
+
+    d = dashboard_client.DashboardClient(HOST)
+    d.connect()
+    time.sleep(0.3)
+    d.unlockProtectiveStop()
+    d.disconnect()
+    assert ctrl.reuploadScript()
+    t0 = time.monotonic()
+    while not (ctrl.isProgramRunning() and recv.getSafetyStatusBits() == 1) and time.monotonic() - t0 < 5:
+        time.sleep(0.01)
+
+
+def test_collision_with_the_bench_is_a_protective_stop(standin, clients):
+    ctrl, recv = clients
+    pose = np.array(recv.getActualTCPPose())
+    # the cell's TCP (0.13 m) is active; straight down 0.45 m goes through the bench top
+    assert recv.getActualTCPPose()[2] == pytest.approx(standin.state()["tcp_pose"][2])
+    target = pose - np.array([0, 0, 0.45, 0, 0, 0])
+    assert not ctrl.moveL(target.tolist(), 0.25, 1.2)  # the move fails when the arm stops
+    assert recv.getSafetyMode() == 3 and recv.getSafetyStatusBits() == (1 << 2) | (1 << 10)
+    state = standin.state()
+    assert state["safety_mode"] == "PROTECTIVE_STOP" and "collision" in state["last_error"]
+    assert "bench" in state["last_error"]
+    # stopped at first contact: the suction cup (ending 2 mm short of the TCP) on the bench top,
+    # which is the robot base plane (base at z = 0.80 m on the 0.80 m bench)
+    z_stop = recv.getActualTCPPose()[2]
+    assert z_stop == pytest.approx(-0.002, abs=0.002)
+    _recover(standin, ctrl, recv)
+    assert ctrl.moveL(pose.tolist(), 0.25, 1.2)  # back up, clear of the bench
+    assert np.abs(np.array(recv.getActualTCPPose())[:3] - pose[:3]).max() < 1e-6
+
+
+def test_watchdog_stops_a_quiet_client(standin, clients):
+    ctrl, recv = clients
+    assert ctrl.setWatchdog(20.0)
+    for _ in range(20):  # kicking at ~100 Hz keeps the program alive
+        ctrl.kickWatchdog()
+        time.sleep(0.01)
+    assert recv.getRuntimeState() == 2
+    time.sleep(0.3)  # silent for 6 watchdog periods
+    assert recv.getRuntimeState() == 1
+    assert "RTDE watchdog" in standin.state()["last_error"]
+    assert ctrl.reuploadScript()
+    t0 = time.monotonic()
+    while not ctrl.isProgramRunning() and time.monotonic() - t0 < 5:
+        time.sleep(0.01)
+    assert ctrl.isProgramRunning()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--host", "10.0.0.5"], "--host: the stand-in listens on loopback addresses only"),
+    (["--host", "localhost-ish"], "--host: not an IP address"),
+    (["--version", "4.1"], "--version: expected a controller version"),
+    (["--fault", "meteor_strike"], "--fault: unknown fault 'meteor_strike'"),
+    (["--q0", "1,2,3"], "--q0: expected 6 comma-separated joint angles"),
+    (["--cell", "no/such/cell.toml"], "no/such/cell.toml"),
+])
+def test_ursim_cli_refuses_bad_options(args, message, capsys):
+    assert fabkit_main(["ursim", *args]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
