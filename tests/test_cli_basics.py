@@ -130,3 +130,20 @@ def test_file_formats_readme_examples_run(tmp_path):
                 assert line in out, (cmd, line, out)
                 checked += 1
     assert checked >= 8
+
+
+def test_info_frame_option_measures_a_fold_state(tmp_path, capsys):
+    mesh = mixed_mesh()
+    save_fold(FoldModel.from_mesh(mesh, frames=[FoldFrame(folded_coords(mesh, a)) for a in (0.2, 0.4)]),
+              tmp_path / "p.fold")
+    assert main(["info", str(tmp_path / "p.fold"), "--frame", "-1", "--report", str(tmp_path / "r.json")]) == 0
+    assert "(measured in frame 2 of 2, a fold state)" in capsys.readouterr().out
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r["measured_frame"] == 2
+    # folding is an isometry: the interior vertex keeps zero defect, the faces stay planar
+    assert r["max_abs_angle_defect_rad"] < 1e-14 and r["max_planarity"] < 1e-14
+    assert main(["info", str(tmp_path / "p.fold"), "--frame", "3"]) == 2
+    assert "fold states 1..2" in capsys.readouterr().err
+    save_obj(mesh, tmp_path / "m.obj")
+    assert main(["info", str(tmp_path / "m.obj"), "--frame", "1"]) == 2
+    assert "--frame: only FOLD files have frames" in capsys.readouterr().err

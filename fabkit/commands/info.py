@@ -12,7 +12,7 @@ defect 2*pi - sum of corner angles over interior vertices (max and mean of its a
 radians; 0 for a developable panel), face planarity (max distance of a face's vertices to its
 best-fit plane / mean edge length of the face), the face/vertex tags present, and for FOLD files
 the frames, edge assignments and the file's unit. FOLD files are measured in their key frame
-(the crease pattern); with fold states, info also gives the largest relative edge-length change
+(the crease pattern) unless --frame picks a fold state; with fold states, info also gives the largest relative edge-length change
 against the key frame over all states (0 for an isometric fold), their largest face planarity, and
 the largest fold angle of the last state measured from its coordinates. Units inside are metres.
 
@@ -25,6 +25,9 @@ Example:
 
 def add_arguments(parser) -> None:
     parser.add_argument("file", metavar="FILE", help="a mesh (.obj) or FOLD file (.fold)")
+    parser.add_argument("--frame", type=int, metavar="K",
+                        help="FOLD files: measure frame K instead of the key frame (0 = crease pattern, "
+                             "1..N = fold states, -1 = the last state)")
     add_common(parser)
 
 
@@ -36,18 +39,37 @@ def _faces_by_size(sizes) -> dict[str, int]:
     return {names.get(k, f"{k}-gons"): int(c) for k, c in enumerate(counts) if c}
 
 
-def summarize(path: str) -> dict:
-    """Read and validate `path`; return the summary dictionary (raises `InputError` for a bad file)."""
+def _measured_mesh(model, frame: int | None, path: str):
+    """The key-frame mesh, or the mesh of FOLD frame `frame` (0 = key, 1..N states, negative from the end)."""
+    from fabkit.errors import InputError
+
+    if frame is None or frame == 0:
+        return model.mesh(), 0
+    n = model.n_frames
+    k = frame if frame > 0 else n + 1 + frame
+    if not 1 <= k <= n:
+        raise InputError(f"frame {frame} does not exist: the file has the key frame 0 and fold states 1..{n}"
+                         if n else f"frame {frame} does not exist: the file has only the key frame 0",
+                         source="--frame")
+    return model.frame_mesh(k - 1), k
+
+
+def summarize(path: str, frame: int | None = None) -> dict:
+    """Read and validate `path`; return the summary dictionary (raises `InputError` for a bad file).
+
+    `frame` picks the FOLD frame that is measured (default: the key frame)."""
     from fabkit import measures
     from fabkit.errors import InputError
     from fabkit.io import load_fold, load_obj
 
     suffix = Path(path).suffix.lower()
     if suffix == ".obj":
-        mesh, model = load_obj(path), None
+        if frame is not None:
+            raise InputError("only FOLD files have frames", source="--frame")
+        mesh, model, measured = load_obj(path), None, None
     elif suffix == ".fold":
         model = load_fold(path)
-        mesh = model.mesh()
+        mesh, measured = _measured_mesh(model, frame, path)
     else:
         raise InputError(f"cannot read '{suffix or 'no suffix'}': fabkit info reads .obj and .fold", source=path)
     s = measures.summary(mesh)
@@ -83,9 +105,10 @@ def summarize(path: str) -> dict:
                                  if (model.edges_assignment == a).any()},
             "creator": model.creator,
             "notes": list(model.notes),
+            "measured_frame": measured,
         })
         if model.n_frames:
-            report.update(_frame_measures(model, mesh))
+            report.update(_frame_measures(model, model.mesh(validate=False)))
     return report
 
 
@@ -123,6 +146,8 @@ def _lines(r: dict) -> list[str]:
     ]
     if r["kind"] == "fold":
         asg = " ".join(f"{k}:{v}" for k, v in r["edges_assignment"].items())
+        if r["measured_frame"]:
+            out.insert(1, f"  (measured in frame {r['measured_frame']} of {r['frames']}, a fold state)")
         out.append(f"  FOLD: {r['frames']} fold state frame(s), file unit {r['unit']!r} (shown in metres), "
                    f"classes {r['frame_classes']}, assignments {asg}")
         if r["frames"]:
@@ -139,7 +164,7 @@ def run(args) -> int:
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # unused-vertex warnings are in the report instead
-        report = summarize(args.file)
+        report = summarize(args.file, args.frame)
     for line in _lines(report):
         say(args, line)
     write_report(args, report)
