@@ -31,8 +31,9 @@ def job(tmp_path_factory):
 
 @pytest.fixture(autouse=True)
 def healthy(standin):
-    """Every test starts and ends with a healthy controller."""
+    """Every test starts and ends with a healthy controller and no program running."""
     standin.admin("normal")
+    standin.admin("program_stop")
     yield
     standin.admin("normal")
     standin.admin("estop_release")

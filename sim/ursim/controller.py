@@ -395,17 +395,23 @@ class Controller:
 
     # ---- scheduled faults --------------------------------------------------------------------
     def schedule_fault(self, fault: dict) -> None:
+        """Queue a fault; an `at_progress` fault only counts progress written after it was queued."""
         with self.lock:
+            fault.setdefault("armed_word", self.out_int[2])
             self.pending_faults.append(fault)
 
     def _run_pending_faults(self) -> None:
         if not self.pending_faults:
             return
-        progress = self.out_int[2] & 0x7FFF if self.out_int[2] & 0x8000 else None
+        word = self.out_int[2]
+        progress = word & 0x7FFF if word & 0x8000 else None
         keep = []
         for f in self.pending_faults:
+            if f.get("armed_word") is not None and word != f["armed_word"]:
+                f["armed_word"] = None  # the async status changed since the fault was queued
             due = (f.get("at_time") is not None and time.monotonic() >= f["at_time"]) or \
-                  (f.get("at_progress") is not None and progress is not None and progress >= f["at_progress"])
+                  (f.get("at_progress") is not None and f.get("armed_word") is None and progress is not None
+                   and progress >= f["at_progress"])
             if due:
                 from sim.ursim.admin import apply_fault
 
