@@ -20,7 +20,7 @@ from scipy.sparse.linalg import splu
 
 from fabkit.mesh import PolyMesh
 
-__all__ = ["SpringProblem", "refine_isometric", "refine_pnorm", "gauss_newton"]
+__all__ = ["SpringProblem", "corner_triangles", "refine_isometric", "refine_pnorm", "gauss_newton"]
 
 #: The layout counts as exact when every spring is within this relative deviation (round-off).
 EXACT_RTOL = 1e-12
@@ -29,23 +29,49 @@ ROUNDOFF = 1e-13
 EPS = float(np.finfo(float).eps)
 
 
+#: Flip guard: a corner triangle whose 2D/3D signed area ratio drops below this is pushed back ...
+FLIP_GUARD_RATIO = 0.05
+#: ... with this weight per unit of ratio (springs count with weight 1 per unit relative deviation).
+FLIP_GUARD_WEIGHT = 10.0
+
+
 @dataclass(frozen=True)
 class SpringProblem:
     """Springs `pairs` (S, 2) with rest lengths `rest` (S,) over `n` vertices; `free` (2n,) marks the
-    coordinates the solver may move (row-major u0, v0, u1, v1, ...)."""
+    coordinates the solver may move (row-major u0, v0, u1, v1, ...).
+
+    Optional flip guard: `guard_tris` (G, 3) corner triangles (prev, here, next) with their signed 3D
+    areas `guard_area` (G,) add one residual each, FLIP_GUARD_WEIGHT * max(0, FLIP_GUARD_RATIO -
+    A2D/A3D): zero for every triangle that keeps at least 5 % of its area with the right orientation
+    (so exact and ordinary developments are untouched), growing as a triangle collapses or turns over.
+    """
 
     pairs: np.ndarray
     rest: np.ndarray
     n: int
     free: np.ndarray
+    guard_tris: np.ndarray | None = None
+    guard_area: np.ndarray | None = None
 
-    def residuals(self, uv: np.ndarray) -> np.ndarray:
+    def spring_residuals(self, uv: np.ndarray) -> np.ndarray:
         """Relative length deviation (l - L) / L of every spring."""
         d = uv[self.pairs[:, 1]] - uv[self.pairs[:, 0]]
         return np.sqrt(np.einsum("ij,ij->i", d, d)) / self.rest - 1.0
 
+    def _areas(self, uv: np.ndarray) -> np.ndarray:
+        i, j, k = self.guard_tris.T
+        return 0.5 * ((uv[j, 0] - uv[i, 0]) * (uv[k, 1] - uv[i, 1]) - (uv[k, 0] - uv[i, 0]) * (uv[j, 1] - uv[i, 1]))
+
+    def residuals(self, uv: np.ndarray) -> np.ndarray:
+        """Spring residuals, then the flip-guard residuals (if any)."""
+        r = self.spring_residuals(uv)
+        if self.guard_tris is None:
+            return r
+        ratio = self._areas(uv) / self.guard_area
+        return np.concatenate([r, FLIP_GUARD_WEIGHT * np.maximum(0.0, FLIP_GUARD_RATIO - ratio)])
+
     def jacobian(self, uv: np.ndarray) -> csr_matrix:
-        """Sparse d residuals / d coordinates (S, 2n): four entries per spring."""
+        """Sparse d residuals / d coordinates: four entries per spring, six per active guard."""
         i, j = self.pairs[:, 0], self.pairs[:, 1]
         d = uv[j] - uv[i]
         length = np.sqrt(np.einsum("ij,ij->i", d, d))
@@ -54,7 +80,31 @@ class SpringProblem:
         rows = np.repeat(np.arange(S), 4)
         cols = np.stack([2 * i, 2 * i + 1, 2 * j, 2 * j + 1], axis=1).ravel()
         vals = np.stack([-g[:, 0], -g[:, 1], g[:, 0], g[:, 1]], axis=1).ravel()
-        return csr_matrix((vals, (rows, cols)), shape=(S, 2 * self.n))
+        n_rows = S
+        if self.guard_tris is not None:
+            G = len(self.guard_tris)
+            active = np.flatnonzero(self._areas(uv) / self.guard_area < FLIP_GUARD_RATIO)
+            a, b, c = self.guard_tris[active].T
+            x, y = uv[:, 0], uv[:, 1]
+            w = -FLIP_GUARD_WEIGHT * 0.5 / self.guard_area[active]
+            gv = np.stack([(y[b] - y[c]) * w, (x[c] - x[b]) * w, (y[c] - y[a]) * w, (x[a] - x[c]) * w,
+                           (y[a] - y[b]) * w, (x[b] - x[a]) * w], axis=1).ravel()
+            gc = np.stack([2 * a, 2 * a + 1, 2 * b, 2 * b + 1, 2 * c, 2 * c + 1], axis=1).ravel()
+            gr = np.repeat(S + active, 6)
+            rows, cols, vals = np.concatenate([rows, gr]), np.concatenate([cols, gc]), np.concatenate([vals, gv])
+            n_rows = S + G
+        return csr_matrix((vals, (rows, cols)), shape=(n_rows, 2 * self.n))
+
+
+def corner_triangles(mesh: PolyMesh) -> tuple[np.ndarray, np.ndarray]:
+    """`(tris (C, 3), signed 3D area (C,))`: the triangle (prev, here, next) at every corner, its area
+    signed positive when the corner turns like its face (convex corner)."""
+    t = mesh.topology
+    tris = np.stack([t.face_indices[t.corner_prev], t.face_indices, t.face_indices[t.corner_next]], axis=1)
+    cross = mesh.corner_cross  # (next - here) x (prev - here): towards the front at convex corners
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    sign = np.where(np.einsum("ij,ij->i", cross, mesh.face_normal_sums[t.corner_face]) < 0, -1.0, 1.0)
+    return tris, sign * np.maximum(area, 1e-300)
 
 
 def _anchored_free(n: int, anchor: tuple[int, int], used: np.ndarray) -> np.ndarray:
@@ -74,20 +124,23 @@ def refine_isometric(mesh: PolyMesh, uv0: np.ndarray, pairs: np.ndarray, rest: n
     least-squares minimum with `refine_pnorm`.
     """
     n = len(uv0)
-    problem = SpringProblem(pairs=pairs, rest=rest, n=n, free=_anchored_free(n, anchor, mesh.topology.used_vertex_mask))
+    tris, area = corner_triangles(mesh)
+    problem = SpringProblem(pairs=pairs, rest=rest, n=n, free=_anchored_free(n, anchor, mesh.topology.used_vertex_mask),
+                            guard_tris=tris, guard_area=area)
     r0 = problem.residuals(uv0)
+    start_max = float(np.max(np.abs(problem.spring_residuals(uv0))))
     if not np.all(np.isfinite(r0)):
         raise FloatingPointError("the starting layout has non-finite spring lengths")
-    if np.max(np.abs(r0)) <= EXACT_RTOL:
+    if np.max(np.abs(r0)) <= EXACT_RTOL:  # springs exact and no guard active
         return uv0, {"iterations": 0, "converged": True, "message": "layout already exact (no refinement needed)",
-                     "initial_max_relative_deviation": float(np.max(np.abs(r0)))}
+                     "initial_max_relative_deviation": start_max}
     uv, info = gauss_newton(problem.residuals, problem.jacobian, uv0, problem.free,
                             max_iterations=max_iterations, tol=tol)
     if norm != 2.0 and info["converged"] and np.max(np.abs(problem.residuals(uv))) > ROUNDOFF:
         uv, info_p = refine_pnorm(problem, uv, norm, max_iterations=max_iterations)
         info = {**info_p, "iterations": info["iterations"] + info_p["iterations"],
                 "message": f"least squares: {info['message']}; p = {norm:g}: {info_p['message']}"}
-    info["initial_max_relative_deviation"] = float(np.max(np.abs(r0)))
+    info["initial_max_relative_deviation"] = start_max
     return uv, info
 
 
