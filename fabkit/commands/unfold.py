@@ -19,8 +19,9 @@ Cut files are in millimetres: layers CUT (outline), MOUNTAIN and VALLEY (score l
 (creases whose sense is unknown: flat input) and LABEL. Creases are the edges between faces of
 different face_data "strip" when IN has strip tags, else edges folded by more than --crease-angle.
 
-Exit codes: 0 ok; 1 a check failed (--max-error exceeded, flipped faces or a self-overlapping
-outline: files are still written and the report says which); 2 bad input (nothing written).
+Exit codes: 0 ok; 1 a check failed (--max-error exceeded, flipped faces, a self-overlapping
+outline or a solver that did not converge: files are still written and the report says which);
+2 bad input (nothing written).
 
 Example:
   fabkit generate reflect -o panel.obj
