@@ -123,3 +123,16 @@ def test_bad_arguments_exit_2(tmp_path, panel, capsys):
         main(base + ["--method", "magic"])
     assert exc.value.code == 2
     _assert_nothing_written(tmp_path, ["panel.obj"])
+
+
+def test_a_failing_writer_leaves_no_output_behind(tmp_path, panel, monkeypatch, capsys):
+    import fabkit.unfold.plot
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("disk on fire")
+
+    monkeypatch.setattr(fabkit.unfold.plot, "plot_unfold_error", broken)
+    rc = main(["unfold", str(panel), "-o", str(tmp_path / "f.obj"), "--dxf", str(tmp_path / "f.dxf"),
+               "--svg", str(tmp_path / "f.svg"), "--png", str(tmp_path / "f.png"), "--report", str(tmp_path / "r.json")])
+    assert rc == 3 and "disk on fire" in capsys.readouterr().err
+    _assert_nothing_written(tmp_path, ["panel.obj"])
