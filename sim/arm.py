@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-__all__ = ["LINK_NAMES", "JOINT_NAMES", "ArmSpec", "arm_spec", "add_arm"]
+__all__ = ["LINK_NAMES", "JOINT_NAMES", "ArmSpec", "arm_spec", "add_arm", "part_name", "split_segment"]
 
 #: Body names of the six moving links (UR's link names), base first.
 LINK_NAMES = ("base", "shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3")
@@ -102,6 +102,27 @@ _SPECS = {
 }
 
 
+#: Long capsules are split into pieces no longer than this (m). The pieces' union is exactly the
+#: capsule, but each has a small bounding sphere, so MuJoCo's bounding-sphere filter passes far
+#: fewer (arm piece, panel face) pairs on to the expensive convex narrow phase.
+MAX_CAPSULE_LENGTH = 0.1
+#: Separator between a part's name and its piece number ("upper_arm~2"); reports use the part name.
+PART_SEP = "~"
+
+
+def part_name(geom_name: str) -> str:
+    """The part a geom belongs to: its name without the piece number of a split capsule."""
+    return geom_name.split(PART_SEP, 1)[0]
+
+
+def split_segment(p0, p1, max_length: float) -> list[tuple[list[float], list[float]]]:
+    """`p0 -> p1` cut into equal consecutive pieces no longer than `max_length`."""
+    a, b = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
+    n = max(1, int(np.ceil(np.linalg.norm(b - a) / max_length)))
+    pts = [a + (b - a) * k / n for k in range(n + 1)]
+    return [(pts[k].tolist(), pts[k + 1].tolist()) for k in range(n)]
+
+
 def arm_spec(model_name: str) -> ArmSpec:
     """The collision/inertial/actuator data of a UR model ("ur5e" or "ur10e")."""
     try:
@@ -170,11 +191,12 @@ def add_arm(spec: mujoco.MjSpec, parent, model, *, margin: float = 0.0, prefix: 
         # contacts (the static base cylinder is too: MuJoCo never pairs static geoms).
         affinity = BIT_ARM | BIT_TOOL | BIT_PANEL | (0 if i == 0 else BIT_ENV)
         for cname, radius, p0, p1 in caps:
-            g = body.add_geom(name=prefix + cname, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                              size=[radius, 0, 0], fromto=[*p0, *p1],
-                              contype=BIT_ARM, conaffinity=affinity,
-                              margin=margin, rgba=[0.55, 0.6, 0.68, 1])
-            names["geoms"].append(g.name)
+            for k, (a0, a1) in enumerate(split_segment(p0, p1, MAX_CAPSULE_LENGTH)):
+                g = body.add_geom(name=prefix + cname + (f"{PART_SEP}{k + 1}" if k else ""),
+                                  type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[radius, 0, 0], fromto=[*a0, *a1],
+                                  contype=BIT_ARM, conaffinity=affinity,
+                                  margin=margin, rgba=[0.55, 0.6, 0.68, 1])
+                names["geoms"].append(g.name)
         act = spec.add_actuator(name=prefix + JOINT_NAMES[i], target=joint.name,
                                 trntype=mujoco.mjtTrn.mjTRN_JOINT)
         act.set_to_position(kp=float(data.kp[i]), kv=float(data.kv[i]))

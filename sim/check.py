@@ -38,7 +38,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from robot import kinematics as kin
-from sim.arm import JOINT_NAMES
+from sim.arm import JOINT_NAMES, part_name
 from sim.model import GROUP_ARM, GROUP_ENV, GROUP_PANEL, GROUP_TOOL, build_cell_model
 from sim.panel import PanelModel
 
@@ -110,6 +110,7 @@ class CheckReport:
     min_clearance_pair: tuple[str, str] | None = None
     clearance_limit_m: float = 0.0
     clearance_window_m: float = 0.0
+    panel_window_m: float = 0.0
     cell: str = ""
     robot: str = ""
     panel_faces: int = 0
@@ -126,6 +127,7 @@ class CheckReport:
             "min_clearance_pair": list(self.min_clearance_pair) if self.min_clearance_pair else None,
             "clearance_limit_m": self.clearance_limit_m,
             "clearance_window_m": self.clearance_window_m,
+            "panel_window_m": self.panel_window_m,
             "waypoints": self.waypoints,
             "configs_checked": self.configs_checked,
             "cell": self.cell,
@@ -447,9 +449,10 @@ def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None):
     touch_only |= robot_pair
     if names.grip_face is not None:
         grip = np.flatnonzero(names.geom_face == names.grip_face)
-        wrist3 = [g for g in range(m.ngeom) if names.geom[g] == "wrist_3"]
+        wrist3 = [g for g in range(m.ngeom) if part_name(names.geom[g]) == "wrist_3"]
         touch_only[np.ix_(wrist3, grip)] = touch_only[np.ix_(grip, wrist3)] = True
     clearance = float(cell.limits.clearance)
+    part = [part_name(n) for n in names.geom]
     events = []
     min_d, min_pair = math.inf, None
     qpos = d.qpos
@@ -475,10 +478,10 @@ def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None):
                     continue
             elif environment[g2]:
                 if dist < min_d:
-                    min_d, min_pair = dist, (names.geom[g1], names.geom[g2])
+                    min_d, min_pair = dist, (part[g1], part[g2])
                 if dist >= clearance:
                     continue
-            pair = (names.geom[g1], names.geom[g2])
+            pair = (part[g1], part[g2])
             label = f"{pair[0]} × {pair[1]}"
             if dist < 0:
                 events.append((int(dense.waypoint[j]), "collision", label, dist,
@@ -526,8 +529,32 @@ def _merge(events: list) -> list[Problem]:
             detail += f" (waypoints {r['first']}–{r['last']})"
         problems.append(Problem(waypoint=r["first"], kind=r["kind"], detail=detail, last_waypoint=r["last"],
                                 subject=r["subject"], value=r["value"], pair=r["pair"]))
+    problems = _fold_clearance_into_collisions(problems)
     problems.sort(key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject))
     return problems
+
+
+def _fold_clearance_into_collisions(problems: list[Problem]) -> list[Problem]:
+    """A pair that collides also comes closer than the clearance just before and after: keep one
+    problem (the collision, its first penetrating waypoint) and say where the near miss began."""
+    from dataclasses import replace
+
+    hits = [p for p in problems if p.kind == "collision"]
+    keep, closer = [], {}
+    for p in problems:
+        if p.kind == "clearance":
+            c = next((h for h in hits if h.subject == p.subject and p.waypoint <= h.last_waypoint + 1
+                      and p.last_waypoint >= h.waypoint - 1), None)
+            if c is not None:
+                closer[id(c)] = min(closer.get(id(c), p.waypoint), p.waypoint)
+                continue
+        keep.append(p)
+    out = []
+    for p in keep:
+        if id(p) in closer and closer[id(p)] < p.waypoint:
+            p = replace(p, detail=f"{p.detail}; inside the clearance from waypoint {closer[id(p)]}")
+        out.append(p)
+    return out
 
 
 def cycle_time(prog: Program, dwell=None) -> float:
@@ -565,7 +592,7 @@ def check_program(prog: Program, cell, panel: PanelModel | None = None,
         toolpath_sha256=prog.sha256, ok=not problems, problems=problems, min_clearance_m=min_d,
         cycle_time_s=cycle_time(prog, prog.dwell), waypoints=len(prog), configs_checked=len(dense.q),
         min_clearance_pair=min_pair, clearance_limit_m=float(cell.limits.clearance),
-        clearance_window_m=float(names.margins["environment_m"]), cell=cell.name, robot=model.name,
+        clearance_window_m=float(names.margins["environment_m"]), panel_window_m=float(names.margins.get("panel_m", 0.0)), cell=cell.name, robot=model.name,
         panel_faces=0 if panel is None else len(panel.pieces), notes=tuple(notes))
     return report, dense
 

@@ -10,6 +10,7 @@ departs from a rigid fold (curved-crease states bend a little inside a face).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -76,25 +77,46 @@ def panel_pieces(vertices, faces, thickness: float = DEFAULT_THICKNESS) -> Panel
 
 
 def piece_poses(pieces: PanelPieces, vertices) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rigid poses of every piece for one state's vertex coordinates (n, 3).
+    """Rigid poses of every piece for one state's vertex coordinates (n, 3), or for a stack of
+    states (S, n, 3).
 
     Returns positions (F, 3), quaternions (F, 4) scalar-first (MuJoCo order) and the fit residual
-    (F,): the largest distance between a state vertex and its fitted piece corner (m).
+    (F,): the largest distance between a state vertex and its fitted piece corner (m); with a
+    leading state axis for stacked input. Kabsch (SVD of the cross-covariance, determinant fixed to
+    +1), vectorised over faces and states: faces are padded to the largest vertex count with zero
+    weights.
     """
     V = np.asarray(vertices, dtype=np.float64)
+    single = V.ndim == 2
+    V = V[None] if single else V
     F = len(pieces)
-    pos, quat, res = np.zeros((F, 3)), np.zeros((F, 4)), np.zeros(F)
-    for f in range(F):
-        target = V[pieces.faces[f]]
-        local = pieces.local_polygons[f]
-        c = target.mean(axis=0)
-        rot, _ = Rotation.align_vectors(target - c, local - local.mean(axis=0))
-        t = c - rot.apply(local.mean(axis=0))
-        res[f] = np.linalg.norm(rot.apply(local) + t - target, axis=1).max()
-        pos[f] = t
-        x, y, z, w = rot.as_quat()
-        quat[f] = (w, x, y, z)
-    return pos, quat, res
+    kmax = max(len(f) for f in pieces.faces)
+    idx = np.zeros((F, kmax), dtype=np.int64)
+    w = np.zeros((F, kmax))
+    L = np.zeros((F, kmax, 3))
+    for f, (face, local) in enumerate(zip(pieces.faces, pieces.local_polygons)):
+        idx[f, :len(face)] = face
+        w[f, :len(face)] = 1.0
+        L[f, :len(face)] = local
+    count = w.sum(axis=1)
+    Lc = L - (np.einsum("fk,fkj->fj", w, L) / count[:, None])[:, None, :]
+    Lc *= w[..., None]
+    T = V[:, idx]                                                      # (S, F, kmax, 3)
+    c = np.einsum("fk,sfkj->sfj", w, T) / count[None, :, None]         # target centroids
+    H = np.einsum("fki,sfkj->sfij", Lc, T - c[:, :, None, :])          # cross-covariance
+    U, _, Vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(np.swapaxes(Vt, -1, -2) @ np.swapaxes(U, -1, -2)))
+    D = np.zeros_like(H)
+    D[..., 0, 0] = D[..., 1, 1] = 1.0
+    D[..., 2, 2] = np.where(d == 0, 1.0, d)
+    R = np.swapaxes(Vt, -1, -2) @ D @ np.swapaxes(U, -1, -2)          # local -> state
+    Lmean = np.einsum("fk,fkj->fj", w, L) / count[:, None]
+    t = c - np.einsum("sfij,fj->sfi", R, Lmean)
+    fitted = np.einsum("sfij,fkj->sfki", R, L) + t[:, :, None, :]
+    res = np.max(np.linalg.norm(fitted - T, axis=-1) * w[None], axis=-1)
+    xyzw = Rotation.from_matrix(R.reshape(-1, 3, 3)).as_quat().reshape(R.shape[0], F, 4)
+    quat = xyzw[..., [3, 0, 1, 2]]
+    return (t[0], quat[0], res[0]) if single else (t, quat, res)
 
 
 def interpolate_poses(pos: np.ndarray, quat: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -137,9 +159,28 @@ class PanelModel:
     def n_states(self) -> int:
         return int(self.pos.shape[0])
 
+    @cached_property
+    def _steps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Quaternions with signs aligned state to state, and the per-step differences (computed once:
+        the check asks for a new fold state at almost every configuration of a fold move)."""
+        q = self.quat.copy()
+        for k in range(1, len(q)):
+            q[k, np.sum(q[k - 1] * q[k], axis=1) < 0] *= -1.0
+        return q, np.diff(self.pos, axis=0), np.diff(q, axis=0)
+
     def poses_at(self, s: float) -> tuple[np.ndarray, np.ndarray]:
-        """World poses (F, 3), (F, 4) of the pieces at fractional fold state `s`."""
-        return interpolate_poses(self.pos, self.quat, s)
+        """World poses (F, 3), (F, 4) of the pieces at fractional fold state `s` (as
+        `interpolate_poses`: linear in position, normalised-linear in rotation)."""
+        S = self.pos.shape[0]
+        s = min(max(float(s), 0.0), S - 1.0)
+        k = min(int(s), S - 2) if S > 1 else 0
+        t = s - k
+        if S == 1 or t == 0.0:
+            return self.pos[k], self.quat[k]
+        q, dp, dq = self._steps
+        qt = q[k] + t * dq[k]
+        qt /= np.sqrt(np.einsum("ij,ij->i", qt, qt))[:, None]
+        return self.pos[k] + t * dp[k], qt
 
 
 def panel_model(reference_vertices, faces, states_vertices, fixture, *, grip_face: int | None = None,
@@ -158,14 +199,10 @@ def panel_model(reference_vertices, faces, states_vertices, fixture, *, grip_fac
         raise ValueError(f"grip face {grip_face} is not a face of the panel ({len(pieces)} faces)")
     Fx = np.asarray(fixture, dtype=np.float64)
     rot_fix = Rotation.from_matrix(Fx[:3, :3])
-    pos = np.zeros((len(S), len(pieces), 3))
-    quat = np.zeros((len(S), len(pieces), 4))
-    res = np.zeros((len(S), len(pieces)))
-    for k, V in enumerate(S):
-        p, q, res[k] = piece_poses(pieces, V)
-        pos[k] = p @ Fx[:3, :3].T + Fx[:3, 3]
-        world = rot_fix * Rotation.from_quat(q[:, [1, 2, 3, 0]])
-        quat[k] = world.as_quat()[:, [3, 0, 1, 2]]
+    p, q, res = piece_poses(pieces, S)
+    pos = p @ Fx[:3, :3].T + Fx[:3, 3]
+    world = rot_fix * Rotation.from_quat(q.reshape(-1, 4)[:, [1, 2, 3, 0]])
+    quat = world.as_quat()[:, [3, 0, 1, 2]].reshape(q.shape)
     ids = np.arange(len(pieces)) if face_ids is None else np.asarray(face_ids, dtype=np.int64)
     return PanelModel(pieces, pos, quat, None if grip_face is None else int(grip_face), res, tuple(int(i) for i in ids))
 

@@ -50,17 +50,20 @@ def select_gl_backend() -> str | None:
 
 
 def camera_for_cell(cell):
-    """A free camera looking at the robot and the fixture from the front left, above."""
+    """A free camera looking at the robot and its work area (0.25, 0.25) m into the panel frame,
+    from the side and above, far enough to see both."""
     import mujoco
 
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FREE
     base = np.asarray(cell.robot.base_pose)[:3, 3]
-    fixture = np.asarray(cell.fixture)[:3, 3]
-    cam.lookat[:] = 0.5 * (base + np.array([0.0, 0.0, 0.35]) + fixture)
-    cam.distance = max(2.0, 2.6 * float(np.linalg.norm(fixture[:2] - base[:2])) + 1.2)
-    cam.azimuth = 225.0
-    cam.elevation = -28.0
+    work = (np.asarray(cell.fixture) @ np.array([0.25, 0.25, 0.0, 1.0]))[:3]
+    cam.lookat[:] = 0.5 * (base + work) + np.array([0.0, 0.0, 0.15])
+    cam.distance = 1.2 + 1.6 * float(np.linalg.norm(work[:2] - base[:2]))
+    reach = work[:2] - base[:2]
+    # look across the robot-to-work line from its right-hand side, a little from the work end
+    cam.azimuth = float(np.degrees(np.arctan2(reach[1], reach[0]))) + 120.0
+    cam.elevation = -25.0
     return cam
 
 
@@ -69,7 +72,7 @@ def render_frames(model, cell, configs, *, panel=None, states=None, width: int =
     """Yield RGB frames (height, width, 3) uint8 for joint configurations `configs` (k, 6).
 
     `states`: fold state per configuration (poses the panel's mocap pieces); `highlight`: geom
-    names drawn red (e.g. a collision pair).
+    names drawn red (e.g. a collision pair; every piece of a split capsule).
     """
     import mujoco
 
@@ -77,9 +80,11 @@ def render_frames(model, cell, configs, *, panel=None, states=None, width: int =
         raise ValueError(f"frame {width}x{height} exceeds the model's offscreen buffer")
     rgba = model.geom_rgba.copy()
     try:
-        for name in highlight:
-            g = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
-            if g >= 0:
+        from sim.arm import part_name
+
+        wanted = set(highlight)
+        for g in range(model.ngeom):
+            if part_name(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "") in wanted:
                 model.geom_rgba[g] = [0.9, 0.1, 0.1, 1.0]
         data = mujoco.MjData(model)
         cam = camera or camera_for_cell(cell)

@@ -68,8 +68,8 @@ def test_planned_fold_program_passes_in_both_cells(planned, name, capsys):
     assert js["toolpath_sha256"] == tp.sha256
     assert js["panel_faces"] == 15 and js["waypoints"] == len(tp)
     assert js["configs_checked"] > len(tp)
-    # the tool stays clear of every face but the one it holds
-    assert cell.limits.clearance <= js["min_clearance_m"] < js["clearance_window_m"]
+    # the tool stays clear of every face but the one it holds (None: nothing inside the windows)
+    assert js["min_clearance_m"] is None or js["min_clearance_m"] >= cell.limits.clearance
     assert js["cycle_time_s"] > 0
     rep = json.loads((d / f"r_{name}.json").read_text())
     assert rep["ok"] and rep["configs_per_second"] > 0
