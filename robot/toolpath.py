@@ -128,6 +128,10 @@ class Toolpath:
             fail(f"robot: {d['robot']!r} is not one of {', '.join(K.MODELS)}")
         if not (isinstance(d["tcp"], list) and len(d["tcp"]) == 6 and all(_is_num(x) for x in d["tcp"])):
             fail("tcp: expected 6 numbers")
+        if not isinstance(d["source"], dict):
+            fail("source: expected an object")
+        if not isinstance(d["cell"], str):
+            fail("cell: expected a string")
         if not isinstance(d["waypoints"], list) or not d["waypoints"]:
             fail("waypoints: expected a non-empty list")
         for i, w in enumerate(d["waypoints"]):

@@ -132,6 +132,8 @@ def test_toolpath_json_round_trip(planned, tmp_path):
     (lambda d: d["waypoints"][2]["pose"].pop(), "waypoints[2].pose"),
     (lambda d: d["waypoints"][2].pop("q"), "waypoints[2].q: missing"),
     (lambda d: d.__setitem__("waypoints", []), "waypoints: expected a non-empty list"),
+    (lambda d: d.__setitem__("source", "x.fold"), "source: expected an object"),
+    (lambda d: d.__setitem__("cell", 3), "cell: expected a string"),
 ])
 def test_toolpath_validation(planned, edit, words):
     d = copy.deepcopy(planned[1].toolpath.to_json())
