@@ -78,6 +78,10 @@ def test_spring_set_has_both_quad_diagonals_and_all_polygon_diagonals():
     assert sorted(map(tuple, np.sort(diag[face == 1], axis=1).tolist())) == [(1, 6), (2, 5)]
     dev = develop(mesh)
     assert_exact(dev, mesh.vertices[:, :2])
+    from fabkit.unfold.springs import spring_weights
+
+    w = spring_weights(mesh)
+    assert np.all(w[:E] == 1) and np.allclose(w[E:E + 5], 2 / 5) and np.allclose(w[E + 5:], 1 / 2)
 
 
 def test_triangle_mesh():
@@ -124,7 +128,9 @@ def test_refinement_lowers_the_error_of_a_perturbed_panel(rng):
     pairs, rest = reference_lengths(noisy)
     free = np.ones(2 * noisy.n_vertices, bool)
     free[:3] = False
-    p = SpringProblem(pairs, rest, noisy.n_vertices, free)
+    from fabkit.unfold.springs import spring_weights
+
+    p = SpringProblem(pairs, rest, noisy.n_vertices, free, weights=spring_weights(noisy))
     r = p.residuals(dev.uv)
     J = p.jacobian(dev.uv)
     g = J.T @ r

@@ -4,8 +4,8 @@
 order plus the length deviation of every edge and face diagonal, area change, flips and outline
 overlap. Methods (paper Fig. 10):
 
-- "isometric" (default): spring energy between 3D and 2D lengths over edges and face diagonals,
-  from the exact incremental layout, refined by sparse Gauss-Newton (`isometric.py`);
+- "isometric" (default): spring energy between 3D and 2D lengths over edges and face diagonals
+  (a quad's two diagonals weigh 1/2 each, `springs.spring_weights`), from the exact incremental layout, refined by sparse Gauss-Newton (`isometric.py`);
 - "conformal": least-squares conformal maps, best-scaled (`conformal.py`);
 - "authalic": area-preserving with a weak conformal term (`authalic.py`).
 
@@ -26,7 +26,7 @@ from fabkit.unfold.isometric import refine_isometric
 from fabkit.unfold.layout import incremental_layout
 from fabkit.unfold.metrics import spring_lengths
 from fabkit.unfold.placement import place_on_sheet
-from fabkit.unfold.springs import face_diagonals, spring_pairs
+from fabkit.unfold.springs import face_diagonals, spring_pairs, spring_weights
 
 __all__ = ["METHODS", "DEFAULT_NORM", "Development", "develop", "spring_pairs", "reference_lengths"]
 
@@ -75,8 +75,9 @@ def _check_panel(mesh: PolyMesh) -> None:
 
 def _isometric(mesh: PolyMesh, pairs, rest, seed_face, max_iterations, norm):
     layout = incremental_layout(mesh, seed_face)
+    weights = spring_weights(mesh)
     uv, info = refine_isometric(mesh, layout.uv, pairs, rest, layout.anchor, max_iterations=max_iterations,
-                                norm=norm)
+                                norm=norm, weights=weights)
     info = {**info, "start": "incremental layout", "seed_face": layout.seed_face}
     dev = measure_development(mesh, uv, method="isometric")
     if dev.n_flipped == 0 and not dev.outline_self_overlaps:
@@ -90,7 +91,8 @@ def _isometric(mesh: PolyMesh, pairs, rest, seed_face, max_iterations, norm):
     q = int(np.argmax(np.linalg.norm(start - start[p], axis=1)))
     d = (start[q] - start[p]) / np.linalg.norm(start[q] - start[p])
     start = (start - start[p]) @ np.array([[d[0], -d[1]], [d[1], d[0]]])  # p at 0, q on +x
-    uv2, info2 = refine_isometric(mesh, start, pairs, rest, (p, q), max_iterations=max_iterations, norm=norm)
+    uv2, info2 = refine_isometric(mesh, start, pairs, rest, (p, q), max_iterations=max_iterations, norm=norm,
+                                  weights=weights)
     dev2 = measure_development(mesh, uv2, method="isometric")
     if (dev2.n_flipped, dev2.outline_self_overlaps) < (dev.n_flipped, dev.outline_self_overlaps):
         return uv2, {**info2, "start": "conformal map (the incremental start flipped)", "seed_face": -1}

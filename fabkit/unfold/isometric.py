@@ -1,7 +1,8 @@
 """Isometric development (paper §2.8): spring energy between 3D (or target) and 2D lengths.
 
-Energy: sum over springs s (edges and face diagonals) of ((l2D_s - L_s) / L_s)^2, i.e. the
-relative length deviation the paper reports, minimised as a sparse nonlinear least-squares problem
+Energy: sum over springs s (edges and face diagonals) of w_s ((l2D_s - L_s) / L_s)^2, i.e. the
+relative length deviation the paper reports (w_s = 1 for edges, 2/k for the diagonals of a k-gon:
+see `springs.spring_weights`), minimised as a sparse nonlinear least-squares problem
 by Gauss-Newton with a line search (sparse analytic Jacobian, sparse direct solves with
 `scipy.sparse.linalg.splu`), from the exact incremental layout. Three coordinates (the layout's
 anchor vertex and the y of its second vertex) are held fixed to remove the rigid-motion freedom.
@@ -52,19 +53,24 @@ class SpringProblem:
     free: np.ndarray
     guard_tris: np.ndarray | None = None
     guard_area: np.ndarray | None = None
+    weights: np.ndarray | None = None
 
     def spring_residuals(self, uv: np.ndarray) -> np.ndarray:
-        """Relative length deviation (l - L) / L of every spring."""
+        """Relative length deviation (l - L) / L of every spring (unweighted)."""
         d = uv[self.pairs[:, 1]] - uv[self.pairs[:, 0]]
         return np.sqrt(np.einsum("ij,ij->i", d, d)) / self.rest - 1.0
+
+    @property
+    def _root_weights(self):
+        return 1.0 if self.weights is None else np.sqrt(self.weights)
 
     def _areas(self, uv: np.ndarray) -> np.ndarray:
         i, j, k = self.guard_tris.T
         return 0.5 * ((uv[j, 0] - uv[i, 0]) * (uv[k, 1] - uv[i, 1]) - (uv[k, 0] - uv[i, 0]) * (uv[j, 1] - uv[i, 1]))
 
     def residuals(self, uv: np.ndarray) -> np.ndarray:
-        """Spring residuals, then the flip-guard residuals (if any)."""
-        r = self.spring_residuals(uv)
+        """Spring residuals (times the square root of their energy weights), then the flip guards."""
+        r = self.spring_residuals(uv) * self._root_weights
         if self.guard_tris is None:
             return r
         ratio = self._areas(uv) / self.guard_area
@@ -76,6 +82,7 @@ class SpringProblem:
         d = uv[j] - uv[i]
         length = np.sqrt(np.einsum("ij,ij->i", d, d))
         g = d / np.maximum(length * self.rest, 1e-300)[:, None]
+        g = g * (self._root_weights if self.weights is None else self._root_weights[:, None])
         S = len(self.pairs)
         rows = np.repeat(np.arange(S), 4)
         cols = np.stack([2 * i, 2 * i + 1, 2 * j, 2 * j + 1], axis=1).ravel()
@@ -116,17 +123,18 @@ def _anchored_free(n: int, anchor: tuple[int, int], used: np.ndarray) -> np.ndar
 
 def refine_isometric(mesh: PolyMesh, uv0: np.ndarray, pairs: np.ndarray, rest: np.ndarray,
                      anchor: tuple[int, int], *, max_iterations: int = 100,
-                     tol: float = 1e-12, norm: float = 2.0) -> tuple[np.ndarray, dict]:
+                     tol: float = 1e-12, norm: float = 2.0, weights: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
     """Minimise the spring energy from `uv0`; returns `(uv, info)` with iterations/converged/message.
 
-    When `uv0` already meets every rest length to `EXACT_RTOL` (exactly developable input laid out
+    `weights`: energy weight per spring (default 1). When `uv0` already meets every rest length to
+    `EXACT_RTOL` (exactly developable input laid out
     exactly) the solver is not started: that is the minimum. `norm` > 2 continues from the
     least-squares minimum with `refine_pnorm`.
     """
     n = len(uv0)
     tris, area = corner_triangles(mesh)
     problem = SpringProblem(pairs=pairs, rest=rest, n=n, free=_anchored_free(n, anchor, mesh.topology.used_vertex_mask),
-                            guard_tris=tris, guard_area=area)
+                            guard_tris=tris, guard_area=area, weights=weights)
     r0 = problem.residuals(uv0)
     start_max = float(np.max(np.abs(problem.spring_residuals(uv0))))
     if not np.all(np.isfinite(r0)):

@@ -11,7 +11,7 @@ import numpy as np
 
 from fabkit.mesh import PolyMesh
 
-__all__ = ["face_diagonals", "spring_pairs"]
+__all__ = ["face_diagonals", "spring_pairs", "spring_weights"]
 
 
 def face_diagonals(mesh: PolyMesh) -> tuple[np.ndarray, np.ndarray]:
@@ -45,3 +45,16 @@ def spring_pairs(mesh: PolyMesh) -> tuple[np.ndarray, int]:
     """`(pairs (E + D, 2), E)`: the mesh edges followed by the face diagonals."""
     diag, _ = face_diagonals(mesh)
     return np.concatenate([mesh.edges, diag]).astype(np.int64), mesh.n_edges
+
+
+def spring_weights(mesh: PolyMesh) -> np.ndarray:
+    """Energy weight of every spring (`spring_pairs` order): 1 for an edge, 2/k for a diagonal of a
+    k-gon.
+
+    A k-gon has k(k-3)/2 diagonals where a triangulation of it has k-3; with weight 2/k they count
+    together as much as one triangulation's diagonals (a quad's two diagonals weigh 1/2 each), so
+    holding a face's shape does not outweigh its edges. Measured on non-developable panels this
+    lowers the maximum edge deviation by 10-30 % for a 1-2 % larger mean (bench/bench_unfold.py).
+    """
+    diag, face = face_diagonals(mesh)
+    return np.concatenate([np.ones(mesh.n_edges), 2.0 / mesh.topology.face_sizes[face]])
