@@ -63,8 +63,7 @@ class Evaluation:
 
     energy: float                 # total energy (including closeness)
     defect: np.ndarray            # K_v at the defect vertices (rad)
-    planarity: np.ndarray         # per face: max |d| / mean edge length of the face (triangles 0),
-                                  # then per planar vertex group: max |d| / L
+    planarity: np.ndarray         # per face: max |d| / mean edge length of the face (triangles 0)
     gradient: np.ndarray | None   # (n, 3) dE/dx (zero rows at fixed vertices), or None
     force_residual: float         # max_v |∇_v E_dev+plan| · L at free vertices (dimensionless); NaN without gradient
 
@@ -90,16 +89,11 @@ class Evaluation:
 
 
 class _FaceGroup:
-    """Faces with the same number of vertices k >= 4, as an (m, k) vertex array (planarity terms).
+    """Faces with the same number of vertices k >= 4, as an (m, k) vertex array (planarity terms)."""
 
-    cloud=True: unordered vertex sets (planar vertex groups), always fitted with the covariance plane;
-    `face_ids` then index the planar groups.
-    """
-
-    def __init__(self, faces: np.ndarray, face_ids: np.ndarray, cloud: bool = False):
+    def __init__(self, faces: np.ndarray, face_ids: np.ndarray):
         self.faces = faces
         self.face_ids = face_ids
-        self.cloud = cloud
         self.m, self.k = faces.shape
 
 
@@ -115,7 +109,7 @@ class EnergyModel:
     def __init__(self, topology: MeshTopology, *, defect_mask: np.ndarray, free_mask: np.ndarray,
                  planarity_weight: float = 1.0, plane_method: str = "cross", length_scale: float = 1.0,
                  closeness_weight: float = 0.0, x_ref: np.ndarray | None = None,
-                 planarity_mask: np.ndarray | None = None, planar_groups=None):
+                 planarity_mask: np.ndarray | None = None):
         if plane_method not in PLANE_METHODS:
             raise ValueError(f"unknown plane method {plane_method!r} (cross or covariance)")
         if not (length_scale > 0 and np.isfinite(length_scale)):
@@ -156,14 +150,6 @@ class EnergyModel:
             faces = np.stack([fi[t.face_offsets[ids] + j] for j in range(k)], axis=1)
             self.groups.append(_FaceGroup(faces, ids))
         self.n_faces = t.n_faces
-        pg = [np.asarray(gv, dtype=np.int64) for gv in (planar_groups or [])]
-        self.n_planar_groups = len(pg)
-        gsizes = np.array([len(gv) for gv in pg], dtype=np.int64)
-        for k in np.unique(gsizes):
-            if k < 4:
-                continue
-            ids = np.flatnonzero(gsizes == k)
-            self.groups.append(_FaceGroup(np.stack([pg[i] for i in ids]), ids, cloud=True))
         dof = np.full(self.n, -1, dtype=np.int64)
         dof[self.free_mask] = np.arange(int(self.free_mask.sum()))
         self.dof_of_vertex = dof
@@ -210,12 +196,6 @@ class EnergyModel:
         Nsum = _cross(U, W).sum(axis=1)
         Nlen = np.sqrt(_dot(Nsum, Nsum))
         extra = None
-        if g.cloud:
-            M = np.einsum("mki,mkj->mij", R, R)
-            lam, vec = np.linalg.eigh(M)
-            n = vec[:, :, 0]
-            d = _dot(R, n[:, None, :])
-            return P, R, U, W, Nsum, Nlen, n, d, np.full((g.m, g.k), self.L), (lam, vec)
         n = Nsum / Nlen[:, None]
         if self.plane_method == "covariance":
             M = np.einsum("mki,mkj->mij", R, R)
@@ -253,16 +233,16 @@ class EnergyModel:
         if need_grad:
             # dK_v/dx = -Σ dθ; E_dev gradient = Σ K_v dK_v/dx
             G = _scatter3(self.n, self._dc_verts, -K[self._dc_row][:, None, None] * dtheta)
-        planarity = np.zeros(self.n_faces + self.n_planar_groups)
+        planarity = np.zeros(self.n_faces)
         for g in self.groups:
             P, R, U, W, Nsum, Nlen, n, d, elen, extra = self._group_planes(g, X)
-            planarity[g.face_ids + (self.n_faces if g.cloud else 0)] = np.abs(d).max(axis=1) / elen.mean(axis=1)
+            planarity[g.face_ids] = np.abs(d).max(axis=1) / elen.mean(axis=1)
             if w_p == 0.0:
                 continue
             E += 0.5 * w_p / L2 * float(np.sum(d * d))
             if need_grad:
                 gp = d[:, :, None] * n[:, None, :]     # exact for both planes (covariance: dλ/dx_j = 2 d_j n)
-                if self.plane_method == "cross" and not g.cloud:
+                if self.plane_method == "cross":
                     q = np.einsum("mk,mki->mi", d, R)
                     p = (q - n * _dot(n, q)[:, None]) / Nlen[:, None]
                     gp = gp + self._n_adjoint(U, W, p[:, None, :])[:, 0]
@@ -291,7 +271,7 @@ class EnergyModel:
     # ------------------------------------------------------------------------------------------
     # residual vector and its sparse Jacobian (Gauss–Newton)
     def _planarity_rows(self, g: _FaceGroup) -> int:
-        return 1 if (g.k == 4 and self.plane_method == "cross" and not g.cloud) else g.k
+        return 1 if (g.k == 4 and self.plane_method == "cross") else g.k
 
     def _build_jacobian_pattern(self) -> None:
         """Row/column pattern of J (fixed for the topology) and the map that sums duplicates into CSR."""
@@ -357,7 +337,7 @@ class EnergyModel:
                 continue
             eye = np.eye(k) - 1.0 / k
             base = eye[None, :, :, None] * n[:, None, None, :]          # (m, rows c, verts j, 3)
-            if self.plane_method == "cross" and not g.cloud:
+            if self.plane_method == "cross":
                 p = (R - n[:, None, :] * d[:, :, None]) / Nlen[:, None, None]
                 Jg = base + self._n_adjoint(U, W, p)
             else:
