@@ -19,7 +19,7 @@ the toolpath's sha256; exit 1 if there is any problem, 2 for bad input (includin
 whose stored sha256 does not match its waypoints).
 
 Renders (offscreen, EGL or OSMesa): --render F.png draws waypoint K (default: the first problem,
-else 0) with an offending pair in red; --render F.mp4 plays the whole program.
+else the middle of the fold) with an offending pair in red; --render F.mp4 plays the whole program.
 
 example:
   fabkit check out/PATH.json --cell cells/ur5e_bench.toml -o out/CHECK.json --render out/check.png
@@ -180,8 +180,10 @@ def _render(args, path: Path, size, cell, panel, prog, dense, report) -> dict:
     if path.suffix.lower() == ".png":
         k = args.waypoint
         highlight = ()
-        if k is None:
-            k = report.problems[0].waypoint if report.problems else 0
+        if k is None:  # the first problem, else the middle of the fold (the panel half folded)
+            folding = [i for i, op in enumerate(prog.ops) if op in ("fold", "release")]
+            k = (report.problems[0].waypoint if report.problems else
+                 folding[len(folding) // 2] if folding else 0)
         if not 0 <= k < len(prog):
             raise InputError(f"waypoint {k} is outside 0..{len(prog) - 1}", source="--waypoint")
         hits = np.flatnonzero(dense.at_waypoint & (dense.waypoint == k))
