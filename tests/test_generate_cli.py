@@ -84,3 +84,14 @@ def test_unknown_option_is_a_usage_error(tmp_path):
     with pytest.raises(SystemExit) as exc:
         main(["generate", "reflect", "-o", str(tmp_path / "x.obj"), "--frobnicate", "1"])
     assert exc.value.code == 2
+
+
+def test_png_picture(tmp_path):
+    png = tmp_path / "r.png"
+    assert main(["generate", "reflect", "-o", str(tmp_path / "r.obj"), "--creases", "2", "--png", str(png), "-q"]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+    assert main(["generate", "trifold", "-o", str(tmp_path / "t.obj"), "--resolution", "4", "--png",
+                 str(tmp_path / "t.png"), "-q"]) == 0
+    assert (tmp_path / "t.png").stat().st_size > 10_000
+    assert main(["generate", "cube", "-o", str(tmp_path / "c.obj"), "--png", str(tmp_path / "no" / "c.png")]) == 2
+    assert not (tmp_path / "c.obj").exists() and not list(tmp_path.glob("**/.*.tmp"))

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -31,7 +32,7 @@ Presets (parameters in brackets, defaults after '='; lengths in metres, angles i
 Prints vertices, faces, max |angle defect| and max planarity of the written mesh.
 
 Example:
-  fabkit generate reflect -o r.obj --creases 2 --fold 50 --columns 40
+  fabkit generate reflect -o r.obj --creases 2 --fold 50 --columns 40 --png r.png
 """
 
 
@@ -174,6 +175,8 @@ MAX_FACES = 5_000_000  # refuse absurd resolutions before allocating them
 def add_arguments(parser) -> None:
     parser.add_argument("preset", metavar="PRESET", help=f"one of: {', '.join(PRESETS)}")
     parser.add_argument("-o", "--output", required=True, metavar="OUT.obj", help="output mesh (.obj keeps the tags)")
+    parser.add_argument("--png", metavar="F.png", help="picture: 3D view with strips and creases (M red, V blue), "
+                                                      "and the development when the preset has one")
     names: dict[str, list[str]] = {}
     for preset, (_, params) in PRESETS.items():
         for name, spec in params.items():
@@ -242,15 +245,24 @@ def run(args) -> int:
     if _estimate_faces(preset, p) > MAX_FACES:
         raise InputError(f"these parameters make about {_estimate_faces(preset, p):,} faces, more than the "
                          f"{MAX_FACES:,} this command writes; lower the resolution", source=f"preset {preset}")
+    for path in (args.output, args.png, args.report):  # refuse before writing anything
+        if path:
+            parent = Path(path).parent
+            if not (parent if str(parent) else Path(".")).is_dir():
+                raise InputError("output directory does not exist", source=str(path))
     build, _ = PRESETS[preset]
     try:
         mesh = build(p)
     except InputError as exc:
         raise InputError(exc.message, source=f"preset {preset}") from None
     save_mesh(mesh, args.output)
+    if args.png:
+        from fabkit.generate.plot import plot_generated
+
+        plot_generated(mesh, args.png, title=f"fabkit generate {preset}")
     s = measures.summary(mesh)
     kinds = {int(k): int(c) for k, c in enumerate(np.bincount(mesh.face_sizes)) if c}
-    report = {"preset": preset, "params": p, "output": str(args.output), **s,
+    report = {"preset": preset, "params": p, "output": str(args.output), "png": args.png, **s,
               "face_sizes": kinds, "tags": sorted(mesh.face_data) + sorted(mesh.vertex_data)}
     if "strip" in mesh.face_data:
         d = measures.dihedral_angles(mesh)
