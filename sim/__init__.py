@@ -1,0 +1,13 @@
+"""MuJoCo side of fabkit: the cell model, the toolpath check, rendering, the controller stand-in.
+
+- `sim.arm`: the UR arm as DH-exact MuJoCo bodies (flange site = `robot.kinematics.fk`).
+- `sim.panel`: the panel as one thin convex piece per face, posed per fold state.
+- `sim.model.build_cell_model(cell, panel)`: arm + tool + obstacles + panel -> `(MjModel, CellNames)`.
+- `sim.check.check_toolpath(path, cell, panel)` / `check_program(...)`: CHECK.json's `CheckReport`.
+- `sim.render`: offscreen PNG/MP4 (call `select_gl_backend()` before anything imports mujoco).
+- `sim.programs`: synthetic sweep programs for tests and benchmarks.
+- `sim.ursim`: the controller stand-in (its own package).
+
+Nothing here imports mujoco at package import time, so `sim.render.select_gl_backend` can still pick
+the OpenGL backend.
+"""
