@@ -132,6 +132,9 @@ def test_unused_vertices_warn_and_keep_ids(tmp_path):
      "line 5: fabkit vertex_data 'p' has 1 entries for 3 vertices"),
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n# fabkit face_data s notadtype [1]\n", "line 5: cannot read"),
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nbogus 1 2\n", "line 5: unknown OBJ statement bogus"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1_0 0\nf 1 2 3\n", "line 3: vertex coordinates '0 1_0 0' are not numbers"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3_\n", "line 4: face corner '3_' is not a vertex index"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 +3\n", "line 4: face corner '+3' is not a vertex index"),
 ])
 def test_errors_name_file_and_line(tmp_path, text, needle):
     p = write(tmp_path, text)

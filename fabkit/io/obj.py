@@ -42,8 +42,12 @@ _DATA_RE = re.compile(r"#\s*fabkit\s+(face_data|vertex_data)\s+(\S+)\s+(\S+)\s+(
 
 def _logical_lines(text: str):
     """Yield `(line_number, line)` with `\\` continuations joined (numbered by their first line)."""
+    lines = text.splitlines()
+    if not any(line.rstrip().endswith("\\") for line in lines):  # no continuations: the common case
+        yield from enumerate(lines, start=1)
+        return
     pending, start = "", 0
-    for number, raw in enumerate(text.splitlines(), start=1):
+    for number, raw in enumerate(lines, start=1):
         line = raw.rstrip()
         if not pending:
             start = number
@@ -75,6 +79,8 @@ def _parse_index(token: str, n_vertices: int, number: int, source: str) -> int:
     """One face corner (`v`, `v/vt`, `v//vn`, `v/vt/vn`) -> 0-based vertex index."""
     head = token.split("/", 1)[0]
     try:
+        if not head.lstrip("-").isdigit():  # int() would also take '1_0' or '+1'
+            raise ValueError
         i = int(head)
     except ValueError:
         raise InputError(f"line {number}: face corner {token!r} is not a vertex index", source=source) from None
@@ -113,6 +119,8 @@ def parse_obj(text: str, source: str = "<obj>") -> tuple[np.ndarray, list[list[i
             if len(args) < 3:
                 raise InputError(f"line {number}: vertex needs x y z, got {len(args)} values", source=source)
             try:
+                if any("_" in a for a in args[:3]):  # float() would read '1_0' as 10
+                    raise ValueError
                 verts.append((float(args[0]), float(args[1]), float(args[2])))
             except ValueError:
                 raise InputError(f"line {number}: vertex coordinates {' '.join(args[:3])!r} are not numbers",
@@ -122,7 +130,15 @@ def parse_obj(text: str, source: str = "<obj>") -> tuple[np.ndarray, list[list[i
             if len(args) < 3:
                 raise InputError(f"line {number}: face {len(faces)} has {len(args)} vertices "
                                  "(a face needs at least 3)", source=source)
-            faces.append([_parse_index(t, len(verts), number, source) for t in args])
+            try:  # fast path: plain 1-based indices in range
+                if not all(t.isdigit() for t in args):
+                    raise ValueError
+                face = [int(t) - 1 for t in args]
+                if min(face) < 0 or max(face) >= len(verts):
+                    raise ValueError
+            except ValueError:  # v/vt/vn forms, negative indices, or an error to report
+                face = [_parse_index(t, len(verts), number, source) for t in args]
+            faces.append(face)
             face_lines.append(number)
         elif key not in _IGNORED:
             shown = key if key.isprintable() and len(key) <= 20 else repr(key[:20])
