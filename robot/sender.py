@@ -313,13 +313,16 @@ class Sender:
         result.chunks_sent += 1
         st = self._run_async("move_path", (entries, True), f"movePath for waypoints {start}-{stop - 1}", running,
                              3 * self._expected_duration(start, stop) + 30.0)
-        dp, dr = pose_distance(st["tcp_pose"], self.wps[stop - 1]["pose"])
-        if dp > max(self.s.final_tol_m, 1e-5) or dr > max(self.s.final_tol_rad, 1e-4):
-            for _ in range(3):  # the receive stream may lag the control stream: let a safety stop show
-                time.sleep(0.03)
-                st = self.poll()
-                if st["runtime_state"] != RUNTIME_PLAYING:
-                    raise _Fault("the control script stopped (program stopped on the controller)")
+        tol_m, tol_rad = max(self.s.final_tol_m, 1e-5), max(self.s.final_tol_rad, 1e-4)
+        for _ in range(10):  # the receive stream may lag the control stream by a few periods
+            dp, dr = pose_distance(st["tcp_pose"], self.wps[stop - 1]["pose"])
+            if dp <= tol_m and dr <= tol_rad:
+                break
+            if st["runtime_state"] != RUNTIME_PLAYING:
+                raise _Fault("the control script stopped (program stopped on the controller)")
+            time.sleep(0.02)
+            st = self.poll()  # raises on a safety stop
+        else:
             raise _Fault(f"the path ended {dp * 1e3:.3f} mm / {math.degrees(dr):.3f} deg away from waypoint {stop - 1}")
         self.last_completed = stop - 1
         self._on_progress(self.last_completed, st)
@@ -332,8 +335,12 @@ class Sender:
         else:
             method, args = "move_l", (w["pose"], w["v"], w["a"], True)
         self._run_async(method, args, "the final register move", lambda p, st: None, 30.0)
-        st = self.poll()
-        dp, dr = pose_distance(st["tcp_pose"], w["pose"])
+        for _ in range(10):  # let the receive stream catch up with the control stream
+            st = self.poll()
+            dp, dr = pose_distance(st["tcp_pose"], w["pose"])
+            if dp <= self.s.final_tol_m and dr <= self.s.final_tol_rad:
+                break
+            time.sleep(0.02)
         result.final_error_m, result.final_error_rad = dp, dr
         if dp > self.s.final_tol_m or dr > self.s.final_tol_rad:
             raise _Fault(f"final pose misses waypoint {len(self.wps) - 1} by {dp * 1e3:.3f} mm / "

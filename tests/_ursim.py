@@ -37,20 +37,57 @@ def wait_for_banner(host: str, timeout: float = 20.0, port: int = 29999) -> bool
     return False
 
 
-class StandIn:
-    """`python -m sim.ursim` in a subprocess on `host`; always killed by `stop()`."""
+PORTS = (30004, 29999, 30001, 30002, 30003, 30020)
 
-    def __init__(self, host: str, *args: str, log: Path | None = None):
-        self.host = host
+
+def free_loopback_hosts(rng) -> list[str]:
+    """127.0.0.x addresses (x in 100-250, shuffled) on which every stand-in port is free now."""
+    xs = list(range(100, 251))
+    rng.shuffle(xs)
+    out = []
+    for x in xs:
+        host = f"127.0.0.{x}"
+        socks = []
+        try:
+            for port in PORTS:
+                sk = socket.socket()
+                socks.append(sk)
+                sk.bind((host, port))
+            out.append(host)
+        except OSError:
+            pass
+        finally:
+            for sk in socks:
+                sk.close()
+        if len(out) >= 5:
+            break
+    return out
+
+
+class StandIn:
+    """`python -m sim.ursim` in a subprocess on a free loopback address; always killed by `stop()`.
+
+    The address is picked at random among free ones (other test runs may use the same machine at
+    the same time); the stand-in counts as started only when *its own* process reports ready, and
+    another address is tried if it could not bind.
+    """
+
+    def __init__(self, *args: str, log: Path):
+        import random
+
         self.log = log
-        out = open(log, "w") if log else subprocess.DEVNULL
-        self.proc = subprocess.Popen([sys.executable, "-m", "sim.ursim", "--host", host, *args],
-                                     stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, cwd=ROOT)
-        if log:
-            out.close()
-        if not wait_for_banner(host):
+        for host in free_loopback_hosts(random.Random()):
+            self.host = host
+            with open(log, "w") as out:
+                self.proc = subprocess.Popen([sys.executable, "-m", "sim.ursim", "--host", host, *args],
+                                             stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, cwd=ROOT)
+            deadline = time.monotonic() + 30
+            while time.monotonic() < deadline and self.proc.poll() is None:
+                if f"ursim: ready on {host}" in self.log_text():
+                    return
+                time.sleep(0.05)
             self.stop()
-            raise RuntimeError(f"stand-in did not start on {host}: {self.log_text()[-2000:]}")
+        raise RuntimeError(f"stand-in did not start: {self.log_text()[-2000:]}")
 
     def log_text(self) -> str:
         return self.log.read_text() if self.log and self.log.exists() else ""
@@ -58,6 +95,7 @@ class StandIn:
     def admin(self, line: str) -> dict:
         from sim.ursim.admin import admin_request
 
+        assert self.proc.poll() is None, f"the stand-in exited: {self.log_text()[-2000:]}"
         return admin_request(self.host, line)
 
     def state(self) -> dict:

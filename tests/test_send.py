@@ -14,7 +14,6 @@ import pytest
 from _ursim import CELL, ROOT, StandIn, demo_toolpath, external_host, write_job
 from fabkit.cli import main as fabkit_main
 
-HOST = external_host() or "127.0.0.176"
 pytestmark = pytest.mark.network
 needs_standin = pytest.mark.skipif(external_host() is not None, reason="fault injection needs the stand-in")
 
@@ -24,7 +23,7 @@ def standin(tmp_path_factory):
     if external_host():
         yield None
         return
-    s = StandIn(HOST, "--cell", str(CELL), "--unlock-delay", "1", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
+    s = StandIn("--cell", str(CELL), "--unlock-delay", "1", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
     yield s
     s.stop()
 
@@ -38,6 +37,11 @@ def run_fabkit(capsys, *args):
 
 
 @pytest.fixture(scope="module")
+def host(standin):
+    return external_host() or standin.host
+
+
+@pytest.fixture(scope="module")
 def job(tmp_path_factory):
     tp = demo_toolpath()
     path, check = write_job(tmp_path_factory.mktemp("job"), tp)
@@ -45,10 +49,10 @@ def job(tmp_path_factory):
     return tp, path, check
 
 
-def test_send_runs_the_demo_toolpath_to_completion(standin, job, tmp_path, capsys):
+def test_send_runs_the_demo_toolpath_to_completion(standin, host, job, tmp_path, capsys):
     tp, path, check = job
     log, report = tmp_path / "send.log", tmp_path / "report.json"
-    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", HOST, "--log", str(log), "--report", str(report))
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", host, "--log", str(log), "--report", str(report))
     assert r.returncode == 0, r.stderr
     assert f"sent {len(tp)} of {len(tp)} waypoints" in r.stdout
     rep = json.loads(report.read_text())
@@ -66,11 +70,11 @@ def test_send_runs_the_demo_toolpath_to_completion(standin, job, tmp_path, capsy
 
 
 @needs_standin
-def test_protective_stop_mid_path_then_resume(standin, job, tmp_path, capsys):
+def test_protective_stop_mid_path_then_resume(standin, host, job, tmp_path, capsys):
     tp, path, check = job
     report = tmp_path / "report.json"
     assert standin.admin("at_progress 20 protective_stop injected by the test")["ok"]
-    proc = subprocess.Popen([sys.executable, "-m", "fabkit", "send", str(path), "--check", str(check), "--host", HOST,
+    proc = subprocess.Popen([sys.executable, "-m", "fabkit", "send", str(path), "--check", str(check), "--host", host,
                              "--report", str(report)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)
     try:
@@ -81,7 +85,10 @@ def test_protective_stop_mid_path_then_resume(standin, job, tmp_path, capsys):
                 t_stop = time.monotonic()
                 break
             time.sleep(0.01)
-        assert t_stop is not None, "the protective stop never happened"
+        if t_stop is None:
+            out, err = proc.communicate(timeout=30)
+            pytest.fail(f"the protective stop never happened: rc {proc.returncode}, {err[-1500:]}, "
+                        f"{standin.state()['log_tail']}")
         out, err = proc.communicate(timeout=30)
         t_exit = time.monotonic()
     finally:
@@ -99,16 +106,16 @@ def test_protective_stop_mid_path_then_resume(standin, job, tmp_path, capsys):
     time.sleep(0.2)
     assert np.array_equal(np.array(standin.state()["q"]), q_stop)  # the arm stays stopped
     # resume: unlock (the stand-in's unlock delay is 1 s here) and finish the job
-    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", HOST, "--resume-from", str(last + 1), "--unlock")
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", host, "--resume-from", str(last + 1), "--unlock")
     assert r.returncode == 0, r.stderr
     assert f"sent {len(tp) - last - 1} of {len(tp)} waypoints" in r.stdout
     assert np.abs(np.array(standin.state()["q"]) - tp.waypoints[-1]["q"]).max() < 1e-9
 
 
 @needs_standin
-def test_resume_far_from_the_path_is_refused(standin, job, capsys):
+def test_resume_far_from_the_path_is_refused(standin, host, job, capsys):
     tp, path, check = job
-    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", HOST, "--resume-from", "30")
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", host, "--resume-from", "30")
     assert r.returncode == 2
     assert "--resume-from 30: the TCP is" in r.stderr and r.stderr.count("\n") == 1
 

@@ -9,14 +9,13 @@ import pytest
 from _ursim import CELL, StandIn, external_host
 from fabkit.cli import main as fabkit_main
 
-HOST = "127.0.0.179"
 pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not None,
                                                       reason="needs the stand-in")]
 
 
 @pytest.fixture(scope="module")
 def standin(tmp_path_factory):
-    s = StandIn(HOST, "--cell", str(CELL), "--unlock-delay", "0.2", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
+    s = StandIn("--cell", str(CELL), "--unlock-delay", "0.2", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
     yield s
     s.stop()
 
@@ -26,9 +25,9 @@ def clients(standin):
     import rtde_control
     import rtde_receive
 
-    ctrl = rtde_control.RTDEControlInterface(HOST, -1.0, rtde_control.RTDEControlInterface.FLAG_UPLOAD_SCRIPT,
+    ctrl = rtde_control.RTDEControlInterface(standin.host, -1.0, rtde_control.RTDEControlInterface.FLAG_UPLOAD_SCRIPT,
                                              50002, -1)
-    recv = rtde_receive.RTDEReceiveInterface(HOST)
+    recv = rtde_receive.RTDEReceiveInterface(standin.host)
     yield ctrl, recv
     ctrl.disconnect()
     recv.disconnect()
@@ -41,12 +40,12 @@ def _wait(cond, timeout=5.0):
     return cond()
 
 
-def _recover(ctrl, recv):
+def _recover(ctrl, recv, host):
     """Unlock a protective stop if there is one and make sure the control script runs."""
     import dashboard_client
 
     if recv.getSafetyMode() == 3:
-        d = dashboard_client.DashboardClient(HOST)
+        d = dashboard_client.DashboardClient(host)
         d.connect()
         time.sleep(0.3)  # this stand-in's unlock delay is 0.2 s
         d.unlockProtectiveStop()
@@ -57,8 +56,8 @@ def _recover(ctrl, recv):
 
 
 @pytest.fixture
-def ready(clients):
-    _recover(*clients)
+def ready(clients, standin):
+    _recover(*clients, standin.host)
     return clients
 
 
@@ -78,7 +77,7 @@ def test_collision_with_the_bench_is_a_protective_stop(standin, ready):
     # which is the robot base plane (base at z = 0.80 m on the 0.80 m bench)
     z_stop = recv.getActualTCPPose()[2]
     assert z_stop == pytest.approx(-0.002, abs=0.002)
-    _recover(ctrl, recv)
+    _recover(ctrl, recv, standin.host)
     assert ctrl.moveL(pose.tolist(), 0.25, 1.2)  # back up, clear of the bench
     assert np.abs(np.array(recv.getActualTCPPose())[:3] - pose[:3]).max() < 1e-6
 
@@ -93,7 +92,7 @@ def test_watchdog_stops_a_quiet_client(standin, ready):
     time.sleep(1.0)  # silent for 5 watchdog periods
     assert _wait(lambda: recv.getRuntimeState() == 1)
     assert "RTDE watchdog" in standin.state()["last_error"]
-    _recover(ctrl, recv)
+    _recover(ctrl, recv, standin.host)
 
 
 @pytest.mark.parametrize("args, message", [

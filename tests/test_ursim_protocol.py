@@ -13,14 +13,13 @@ from _ursim import StandIn, external_host
 from robot import kinematics as K
 from sim.ursim.rtde_vars import OUTPUTS, TYPE_FORMATS, receive_default_variables
 
-HOST, HOST_CB3 = "127.0.0.171", "127.0.0.172"
 pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not None,
                                                       reason="wire-level and fault checks need the stand-in")]
 
 
 @pytest.fixture(scope="module")
 def standin(tmp_path_factory):
-    s = StandIn(HOST, "--unlock-delay", "5", "--programs", str(tmp_path_factory.mktemp("programs")),
+    s = StandIn("--unlock-delay", "5", "--programs", str(tmp_path_factory.mktemp("programs")),
                 log=tmp_path_factory.mktemp("ursim") / "ursim.log")
     yield s
     s.stop()
@@ -68,7 +67,7 @@ def _fmt(types):
 
 
 def test_version_and_framing_of_several_packages_in_one_write(standin):
-    c = RawRTDE(HOST)
+    c = RawRTDE(standin.host)
     # V and v in one write, the second split across two writes: the server must frame the stream
     v_pkg = struct.pack(">HBH", 5, ord("V"), 2)
     vv = struct.pack(">HB", 3, ord("v"))
@@ -82,7 +81,7 @@ def test_version_and_framing_of_several_packages_in_one_write(standin):
 
 
 def test_output_recipe_types_sizes_and_stream(standin):
-    c = RawRTDE(HOST)
+    c = RawRTDE(standin.host)
     c.send(b"V", struct.pack(">H", 2))
     c.recv()
     names = receive_default_variables((5, 15, 0, 0))
@@ -115,7 +114,7 @@ def test_output_recipe_types_sizes_and_stream(standin):
 
 
 def test_unknown_output_gets_not_found(standin):
-    c = RawRTDE(HOST)
+    c = RawRTDE(standin.host)
     c.send(b"V", struct.pack(">H", 2))
     c.recv()
     rid, types = c.setup_outputs(["timestamp", "no_such_var", "actual_q"])
@@ -126,7 +125,7 @@ def test_unknown_output_gets_not_found(standin):
 
 
 def test_input_recipes_numbered_per_connection_and_single_writer(standin):
-    a, b = RawRTDE(HOST), RawRTDE(HOST)
+    a, b = RawRTDE(standin.host), RawRTDE(standin.host)
     for c in (a, b):
         c.send(b"V", struct.pack(">H", 2))
         c.recv()
@@ -151,7 +150,7 @@ def test_input_recipes_numbered_per_connection_and_single_writer(standin):
     # ownership ends with the connection
     a.close()
     time.sleep(0.2)
-    c = RawRTDE(HOST)
+    c = RawRTDE(standin.host)
     c.send(b"V", struct.pack(">H", 2))
     c.recv()
     assert c.setup_inputs(["input_int_register_0"]) == (1, ["INT32"])
@@ -162,7 +161,7 @@ def test_input_recipes_numbered_per_connection_and_single_writer(standin):
 def test_real_receive_interface_default_variables(standin):
     import rtde_receive
 
-    r = rtde_receive.RTDEReceiveInterface(HOST)
+    r = rtde_receive.RTDEReceiveInterface(standin.host)
     try:
         state = standin.state()
         q = np.array(r.getActualQ())
@@ -186,8 +185,8 @@ def test_real_io_interface_sets_outputs(standin):
     import rtde_io
     import rtde_receive
 
-    io = rtde_io.RTDEIOInterface(HOST)
-    r = rtde_receive.RTDEReceiveInterface(HOST)
+    io = rtde_io.RTDEIOInterface(standin.host)
+    r = rtde_receive.RTDEReceiveInterface(standin.host)
     try:
         assert io.setStandardDigitalOut(3, True)
         assert io.setToolDigitalOut(1, True)
@@ -209,7 +208,7 @@ def test_real_io_interface_sets_outputs(standin):
 def test_dashboard_replies_and_protective_stop_unlock_rule(standin, tmp_path):
     import dashboard_client
 
-    d = dashboard_client.DashboardClient(HOST)
+    d = dashboard_client.DashboardClient(standin.host)
     d.connect()
     try:
         assert d.polyscopeVersion() == "5.15.0.0"  # parsed from "URSoftware 5.15.0.0 (...)"
@@ -266,7 +265,7 @@ def test_script_port_runs_fabkit_urscript_and_rejects_the_rest(standin):
   textmsg("done")
 end
 """
-    with socket.create_connection((HOST, 30002), timeout=5) as s:
+    with socket.create_connection((standin.host, 30002), timeout=5) as s:
         s.sendall(program.encode())
     assert _wait(lambda: standin.state()["digital_out"] & (1 << 5))
     st = standin.state()
@@ -274,7 +273,7 @@ end
     assert st["tcp_offset"] == pytest.approx([0, 0, 0.13, 0, 0, 0])
     assert st["runtime_state"] == 1  # the program ended
     # a program the controller would not compile: refused, nothing runs
-    with socket.create_connection((HOST, 30001), timeout=5) as s:
+    with socket.create_connection((standin.host, 30001), timeout=5) as s:
         s.sendall(b"def bad():\n  movej([0, 0, 0, 0, 0, 0], a=1.4, v=1.05)\n  while True:\n  end\nend\n")
     assert _wait(lambda: (standin.state()["last_error"] or "").startswith("compile error"))
     assert np.allclose(standin.state()["q"], target, atol=1e-12)
@@ -282,7 +281,7 @@ end
 
 @pytest.fixture(scope="module")
 def standin_cb3(tmp_path_factory):
-    s = StandIn(HOST_CB3, "--version", "3.15.7", log=tmp_path_factory.mktemp("ursim_cb3") / "ursim.log")
+    s = StandIn("--version", "3.15.7", log=tmp_path_factory.mktemp("ursim_cb3") / "ursim.log")
     yield s
     s.stop()
 
@@ -290,7 +289,7 @@ def standin_cb3(tmp_path_factory):
 def test_cb3_version_streams_at_125_hz(standin_cb3):
     import rtde_receive
 
-    c = RawRTDE(HOST_CB3)
+    c = RawRTDE(standin_cb3.host)
     c.send(b"V", struct.pack(">H", 2))
     c.recv()
     c.send(b"v")
@@ -304,7 +303,7 @@ def test_cb3_version_streams_at_125_hz(standin_cb3):
     steps = np.diff(stamps)
     assert np.allclose(steps / 0.008, np.round(steps / 0.008), atol=1e-6) and np.all(steps > 0)
     c.close()
-    r = rtde_receive.RTDEReceiveInterface(HOST_CB3)  # frequency -1 -> 125 Hz for CB3
+    r = rtde_receive.RTDEReceiveInterface(standin_cb3.host)  # frequency -1 -> 125 Hz for CB3
     try:
         assert r.getRobotMode() == 7
     finally:

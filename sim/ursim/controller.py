@@ -376,12 +376,12 @@ class Controller:
                 k += missed
                 steps += min(missed, 50)
             with self.lock:
-                for _ in range(steps):
+                for j in range(steps):  # catching up: every missed period is simulated and checked
+                    self.timestamp = (k - steps + 1 + j) * period
                     self.arm.step(period, self.speed_fraction if not self.paused else 0.0, self.timestamp)
+                    self._safety_checks()
                 self.tick_index = k
-                self.timestamp = k * period
                 self._update_pose()
-                self._safety_checks()
                 self._run_pending_faults()
             with self.tick_cond:
                 self.tick_cond.notify_all()
