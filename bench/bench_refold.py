@@ -1,0 +1,107 @@
+"""Refold speed: 100 fold states of a ~2,500-vertex two-crease reflect panel (target: <= 2 s on one core).
+
+Rows:
+- `sequence`: the whole schedule with each minimum-norm solver ("direct" sparse factorisation of
+  C C^T, "lsmr", "dense" numpy pinv = the baseline); time per state, Newton iterations per state,
+  and the accuracy reached. The dense baseline and LSMR run only on the smaller panel (on the large
+  one a single dense pinv of the 6912 x 7103 Jacobian takes minutes; LSMR needs ~1e5 iterations per
+  step there); `ratio` = time / direct time on the same panel in the same run.
+- `one_step`: a single Newton linear solve on the large panel, direct (and, with
+  FABKIT_BENCH_DENSE_LARGE=1, the dense baseline: minutes).
+- `intersections`: the interpenetration check per state on the large panel (off in `sequence`).
+"""
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+
+from bench.common import report
+
+
+def _pair(columns: int, rows):
+    from fabkit.generate import MirrorPlane, reflect_panel
+    from fabkit.mesh import PolyMesh
+
+    panel = reflect_panel(planes=[MirrorPlane(0.15, np.radians(60)), MirrorPlane(0.35, np.radians(-60))],
+                          columns=columns, rows=rows)
+    uv = np.asarray(panel.vertex_data["uv"])
+    flat = PolyMesh(np.column_stack([uv, np.zeros(len(uv))]), panel.faces_list(), face_data=panel.face_data)
+    return flat, panel
+
+
+def _run(flat, target, frames, solver):
+    from fabkit.refold import RefoldSolver
+    from fabkit.refold.sequence import build_schedule
+
+    t0 = time.perf_counter()
+    s = RefoldSolver(flat, target, solver=solver)
+    driven, _ = s.driven_hinges("middle-row")
+    F, steps = build_schedule(s.panel, flat, driven, None, frames)
+    setup = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    seq = s.solve(F, driven, steps, check_intersections=False)
+    solve = time.perf_counter() - t0
+    its = seq.newton_iterations[1:]
+    return {"vertices": flat.n_vertices, "hinges": int(seq.summary()["hinges"]), "states": seq.n_states,
+            "solver": solver, "setup_s": setup, "solve_s": solve, "ms_per_state": 1e3 * solve / (seq.n_states - 1),
+            "newton_per_state_mean": float(its.mean()), "newton_per_state_max": int(its.max()),
+            "factorizations": s.linear_solver.factorizations, "lsmr_iterations": s.linear_solver.inner_iterations,
+            "max_loop_residual_rad": float(seq.residual.max()),
+            "max_edge_length_error": float(seq.edge_length_error.max()),
+            "target_distance_rel": seq.target_distance / seq.panel_size,
+            "converged": bool(seq.converged.all())}, seq, s
+
+
+def main(frames: int = 100) -> dict:
+    from fabkit.refold.intersect import intersecting_pairs
+    from fabkit.refold.kinematics import JacobianPattern, MinNormSolver, loop_closure
+
+    rows = []
+    big = _pair(49, [16, 16, 17])           # 50 x 50 = 2,500 vertices
+    r, seq, solver = _run(*big, frames, "direct")
+    rows.append({"case": "sequence", **r, "target_s": 2.0, "ratio": 1.0})
+    small = _pair(24, [8, 8, 8])             # 25 x 25 = 625 vertices
+    small_frames = 20
+    base, _, _ = _run(*small, small_frames, "direct")
+    rows.append({"case": "sequence", **base, "ratio": 1.0})
+    for method in ("lsmr", "dense"):
+        r2, _, _ = _run(*small, small_frames, method)
+        rows.append({"case": "sequence", **r2, "ratio": r2["solve_s"] / base["solve_s"]})
+
+    # one Newton linear solve on the large panel, mid-fold
+    rho = 0.5 * solver.target_angles
+    driven, _ = solver.driven_hinges("middle-row")
+    free = np.setdiff1d(solver.hinges, driven)
+    res, omega = loop_closure(solver.loops, rho)
+    C = JacobianPattern(solver.loops, free).matrix(omega)
+    b = -res.ravel()
+    t0 = time.perf_counter()
+    x_direct = MinNormSolver("direct").solve(C, b)
+    t_direct = time.perf_counter() - t0
+    row = {"case": "one_step", "vertices": big[0].n_vertices, "rows": C.shape[0], "cols": C.shape[1],
+           "solver": "direct", "solve_s": t_direct, "ratio": 1.0}
+    rows.append(row)
+    if os.environ.get("FABKIT_BENCH_DENSE_LARGE", "0") != "0":  # minutes: opt in
+        t0 = time.perf_counter()
+        x_dense = MinNormSolver("dense").solve(C, b)
+        t_dense = time.perf_counter() - t0
+        rows.append({"case": "one_step", "vertices": big[0].n_vertices, "rows": C.shape[0], "cols": C.shape[1],
+                     "solver": "dense", "solve_s": t_dense, "ratio": t_dense / t_direct,
+                     "max_diff_vs_direct": float(np.abs(x_dense - x_direct).max())})
+
+    t0 = time.perf_counter()
+    hits = [len(intersecting_pairs(seq.positions[s], seq.tris, tol=1e-9 * seq.panel_size))
+            for s in range(0, seq.n_states, 10)]
+    t_int = (time.perf_counter() - t0) / len(hits)
+    rows.append({"case": "intersections", "vertices": big[0].n_vertices, "triangles": len(seq.tris),
+                 "ms_per_state": 1e3 * t_int, "states_with_hits": int(np.sum(np.array(hits) > 0))})
+    return report("bench_refold", rows, meta={
+        "what": f"refold of a two-crease reflect panel, {frames} states, middle-row drive, tol 1e-12 rad",
+        "target": "100 states of a ~2,500-vertex panel in <= 2 s on one core",
+        "cpu_count": os.cpu_count()})
+
+
+if __name__ == "__main__":
+    main()
