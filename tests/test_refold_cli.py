@@ -148,3 +148,37 @@ def test_missing_input_and_swapped_inputs_exit_2(pair_files, tmp_path, capsys):
     assert main(["refold", str(d / "target.obj"), str(d / "flat.obj"), "-o", str(tmp_path / "o.fold")]) == 2
     assert "not a flat pattern" in capsys.readouterr().err
     assert not (tmp_path / "o.fold").exists()
+
+
+def test_cli_drive_file_and_steps(pair_files, tmp_path):
+    d, flat, target = pair_files
+    from fabkit.refold import RefoldSolver
+    from fabkit.refold.sequence import middle_row_hinges
+
+    s = RefoldSolver(flat, target)
+    mid = middle_row_hinges(flat, s.panel)
+    drive = tmp_path / "drive.json"
+    drive.write_text(json.dumps([s.panel.edges[e].tolist() for e in mid]))
+    out, rep = tmp_path / "a.fold", tmp_path / "a.json"
+    assert main(["refold", str(d / "flat.obj"), str(d / "target.obj"), "-o", str(out), "--drive", str(drive),
+                 "--steps", "crease0,crease1", "--frames", "3", "--report", str(rep), "-q"]) == 0
+    report = json.loads(rep.read_text())
+    assert [st["step"] for st in report["states"]] == [-1, 0, 0, 1, 1]
+    assert sorted(map(sorted, report["driven_edges"])) == sorted(sorted(s.panel.edges[e].tolist()) for e in mid)
+    assert load_fold(out).n_frames == 5
+
+
+def test_readme_example_runs(tmp_path, monkeypatch):
+    """The commands in docs/readme/refold.md, as written."""
+    import shlex
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / "docs" / "readme" / "refold.md").read_text()
+    block = text.split("```")[1]
+    monkeypatch.chdir(tmp_path)
+    cmds = [shlex.split(line) for line in block.strip().splitlines() if line.startswith("fabkit ")]
+    assert len(cmds) == 3
+    for argv in cmds:
+        assert main(argv[1:] + ["-q"]) == 0, argv
+    assert (tmp_path / "seq.fold").exists() and (tmp_path / "angles.png").exists()
+    assert json.loads((tmp_path / "refold.json").read_text())["ok"]
