@@ -128,3 +128,15 @@ def test_flip_guard_keeps_a_strong_saddle_flip_free():
     dev = develop(saddle)
     assert dev.n_flipped == 0 and not dev.outline_self_overlaps
     assert dev.mean_relative_deviation > 0.01  # far from developable, and reported as such
+
+
+def test_solver_breakdown_is_a_tolerance_error(monkeypatch):
+    import fabkit.unfold
+    from fabkit.errors import ToleranceError
+
+    def broken(*args, **kwargs):
+        raise FloatingPointError("the spring solver diverged (non-finite coordinates)")
+
+    monkeypatch.setattr(fabkit.unfold, "refine_isometric", broken)
+    with pytest.raises(ToleranceError, match="isometric development failed: the spring solver diverged"):
+        fabkit.unfold.develop(sphere_cap())

@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from fabkit.errors import InputError, MeshError
+from fabkit.errors import InputError, MeshError, ToleranceError
 from fabkit.mesh import PolyMesh
 from fabkit.unfold.authalic import authalic_layout
-from fabkit.unfold.conformal import best_scale, conformal_layout
+from fabkit.unfold.conformal import best_scale, conformal_layout, far_boundary_pair
 from fabkit.unfold.development import Development, measure_development
 from fabkit.unfold.isometric import refine_isometric
 from fabkit.unfold.layout import incremental_layout
@@ -85,12 +85,9 @@ def _isometric(mesh: PolyMesh, pairs, rest, seed_face, max_iterations, norm):
     # The layout folded over itself (strongly non-developable input): start again from the
     # conformal map, which does not flip on a disk, and keep whichever result is better.
     tris, _ = mesh.triangulate()
-    start = conformal_layout(mesh, tris)
+    start = conformal_layout(mesh, tris)  # pins p at the origin and q on +x
     start *= best_scale(start, pairs, rest)
-    p = int(np.argmin(np.linalg.norm(start, axis=1)))
-    q = int(np.argmax(np.linalg.norm(start - start[p], axis=1)))
-    d = (start[q] - start[p]) / np.linalg.norm(start[q] - start[p])
-    start = (start - start[p]) @ np.array([[d[0], -d[1]], [d[1], d[0]]])  # p at 0, q on +x
+    p, q = far_boundary_pair(mesh)
     uv2, info2 = refine_isometric(mesh, start, pairs, rest, (p, q), max_iterations=max_iterations, norm=norm,
                                   weights=weights)
     dev2 = measure_development(mesh, uv2, method="isometric")
@@ -106,10 +103,13 @@ def develop(mesh: PolyMesh, method: str = "isometric", target_lengths=None, *, s
     norm: exponent p of the isometric spring energy sum |relative deviation|^p; 2 (default) is the
     paper's least-squares spring energy; p > 2 lowers the maximum deviation at the cost of a
     slightly larger mean (on exactly developable input every p gives the same exact result).
-    place: move the result rigidly so its principal axes are x/y and its bounding box starts at the
-    origin (`placement.place_on_sheet`); otherwise the seed face's first edge lies on +x from 0.
-    Raises `MeshError` for meshes that cannot be unfolded (closed, several pieces, zero-length edges)
-    and `InputError` for bad target lengths or an unknown method.
+    place: move the result rigidly so its smallest bounding rectangle is axis-aligned (long side
+    along x) with its corner at the origin (`placement.place_on_sheet`); otherwise the seed face's
+    first edge lies on +x from 0.
+    Raises `MeshError` for meshes that cannot be unfolded (closed, several pieces, zero-length edges),
+    `InputError` for bad target lengths, exponent or method, and `ToleranceError` when a solver
+    breaks down (non-finite numbers, a singular system); a solver that merely runs out of
+    iterations returns with `converged=False`.
     """
     if method not in METHODS:
         raise InputError(f"unknown method {method!r} (choose {', '.join(METHODS)})", source="method")
@@ -119,10 +119,17 @@ def develop(mesh: PolyMesh, method: str = "isometric", target_lengths=None, *, s
     pairs, rest = reference_lengths(mesh, target_lengths)
     if target_lengths is not None and method != "isometric":
         raise InputError("target lengths are only used by the isometric method", source="method")
+    try:
+        return _develop(mesh, method, pairs, rest, seed_face, place, max_iterations, float(norm))
+    except FloatingPointError as exc:
+        raise ToleranceError(f"{method} development failed: {exc}") from None
+
+
+def _develop(mesh, method, pairs, rest, seed_face, place, max_iterations, norm) -> Development:
     details: dict = {}
     if method == "isometric":
-        uv, info = _isometric(mesh, pairs, rest, seed_face, max_iterations, float(norm))
-        details["norm"] = float(norm)
+        uv, info = _isometric(mesh, pairs, rest, seed_face, max_iterations, norm)
+        details["norm"] = norm
         seed = info.pop("seed_face")
         details["start"] = info.pop("start")
         details["initial_max_relative_deviation"] = info.pop("initial_max_relative_deviation", None)

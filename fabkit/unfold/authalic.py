@@ -12,7 +12,7 @@ import numpy as np
 from scipy.sparse import csr_matrix, vstack
 
 from fabkit.mesh import PolyMesh
-from fabkit.unfold.conformal import conformal_layout, lscm_matrix, _far_boundary_pair
+from fabkit.unfold.conformal import conformal_layout, lscm_matrix, far_boundary_pair
 from fabkit.unfold.isometric import gauss_newton
 
 __all__ = ["AreaProblem", "authalic_layout"]
@@ -56,7 +56,7 @@ def authalic_layout(mesh: PolyMesh, tris: np.ndarray, *, max_iterations: int = 1
     uv0 = conformal_layout(mesh, tris)
     a2 = problem.areas(uv0).sum()
     uv0 = uv0 * np.sqrt(problem.area3.sum() / a2)
-    p, q = _far_boundary_pair(mesh)
+    p, q = far_boundary_pair(mesh)
     free = np.repeat(mesh.topology.used_vertex_mask, 2)
     free[[2 * p, 2 * p + 1, 2 * q + 1]] = False
     return gauss_newton(problem.residuals, problem.jacobian, uv0, free, max_iterations=max_iterations)

@@ -17,7 +17,7 @@ from scipy.sparse.linalg import splu
 
 from fabkit.mesh import PolyMesh
 
-__all__ = ["triangle_local_coords", "lscm_matrix", "conformal_layout", "best_scale"]
+__all__ = ["triangle_local_coords", "lscm_matrix", "conformal_layout", "best_scale", "far_boundary_pair"]
 
 
 def triangle_local_coords(V: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -60,7 +60,7 @@ def lscm_matrix(V: np.ndarray, tris: np.ndarray, n: int, *, relative: bool = Fal
                       shape=(2 * T, 2 * n))
 
 
-def _far_boundary_pair(mesh: PolyMesh) -> tuple[int, int]:
+def far_boundary_pair(mesh: PolyMesh) -> tuple[int, int]:
     """Two boundary vertices far apart (the farthest from the first, then the farthest from that)."""
     loops = mesh.boundary_loops
     b = np.concatenate(loops) if loops else np.flatnonzero(mesh.topology.used_vertex_mask)
@@ -81,7 +81,7 @@ def conformal_layout(mesh: PolyMesh, tris: np.ndarray) -> np.ndarray:
     n = mesh.n_vertices
     V = mesh.vertices
     A = lscm_matrix(V, tris, n).tocsc()
-    p, q = _far_boundary_pair(mesh)
+    p, q = far_boundary_pair(mesh)
     pinned_uv = np.zeros(2 * n)
     pinned_uv[2 * q] = np.linalg.norm(V[q] - V[p])
     fixed = np.zeros(2 * n, dtype=bool)
