@@ -277,3 +277,20 @@ def test_extrude_chosen_edges_and_vector():
         extrude_border_edges(g, 0.3, edges=g.topology.interior_edges)
     with pytest.raises(ValueError, match="direction"):
         extrude_border_edges(g, 0.3, direction="sideways")
+
+
+def test_direct_points_equal_the_sparse_operator(rng):
+    from fabkit.generate.subdivide import catmull_clark_operator, catmull_clark_points, crease_edges_of
+
+    base = catmull_clark(prism(7), 1)
+    base = base.with_vertices(base.vertices + 0.01 * rng.standard_normal(base.vertices.shape))
+    base, _ = delete_faces(base, [0, 5, 9])
+    tag = (base.face_centroids[:, 2] > 0).astype(int)
+    base = base.with_data(face_data={"half": tag})
+    for sharp in (None, crease_edges_of(base, "half")):
+        S, quads, parent = catmull_clark_operator(base.topology, sharp)
+        X = np.column_stack([base.vertices, rng.standard_normal(base.n_vertices)])
+        assert np.allclose(catmull_clark_points(base.topology, X, sharp), S @ X, atol=1e-15)
+        assert np.allclose(catmull_clark_points(base.topology, X[:, 0], sharp), S @ X[:, 0], atol=1e-15)
+        # every row of S sums to one: subdivision reproduces constants (affine invariance)
+        assert np.allclose(np.asarray(S.sum(axis=1)).ravel(), 1.0, atol=1e-15)
