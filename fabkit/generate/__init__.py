@@ -10,7 +10,8 @@
 from fabkit.generate.conway import ambo, bevel, chamfer, truncate, vertex_rings
 from fabkit.generate.polyhedra import box, cube, grid, octahedron, prism, signed_volume, tetrahedron
 from fabkit.generate.reflect import MirrorPlane, grid_faces, reflect_panel
-from fabkit.generate.subdivide import catmull_clark, catmull_clark_operator, crease_edges_of
+from fabkit.generate.subdivide import (catmull_clark, catmull_clark_operator, catmull_clark_points,
+                                       catmull_clark_quads, crease_edges_of)
 from fabkit.generate.topology import (compact, delete_faces, dissolve_edges, dissolve_vertices, edge_loop,
                                       extrude_border_edges, inset_faces, remove_edge_loops)
 from fabkit.generate.trifold import strip_columns, trifold_network, trifold_panel
@@ -18,6 +19,7 @@ from fabkit.generate.trifold import strip_columns, trifold_network, trifold_pane
 __all__ = ["MirrorPlane", "grid_faces", "reflect_panel", "trifold_panel", "trifold_network", "strip_columns",
            "box", "cube", "grid", "octahedron", "prism", "signed_volume", "tetrahedron",
            "ambo", "bevel", "chamfer", "truncate", "vertex_rings",
-           "catmull_clark", "catmull_clark_operator", "crease_edges_of",
+           "catmull_clark", "catmull_clark_operator", "catmull_clark_points", "catmull_clark_quads",
+           "crease_edges_of",
            "compact", "delete_faces", "dissolve_edges", "dissolve_vertices", "edge_loop", "extrude_border_edges",
            "inset_faces", "remove_edge_loops"]
