@@ -91,8 +91,10 @@ def conformal_layout(mesh: PolyMesh, tris: np.ndarray) -> np.ndarray:
     Af = A[:, free]
     rhs = -(A[:, np.flatnonzero(fixed)] @ pinned_uv[fixed])
     H = (Af.T @ Af).tocsc()
-    x = splu(H, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-             options={"SymmetricMode": True}).solve(Af.T @ rhs)
+    lu = splu(H, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    x = lu.solve(Af.T @ rhs)
+    for _ in range(2):  # iterative refinement: the normal equations square the condition number
+        x += lu.solve(Af.T @ (rhs - Af @ x))
     out = pinned_uv.copy()
     out[free] = x
     return out.reshape(n, 2)
