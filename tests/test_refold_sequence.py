@@ -212,3 +212,18 @@ def test_schedule_needs_two_frames_and_every_driven_hinge_in_a_step():
         refold(flat, target, steps="fold0")
     with pytest.raises(InputError, match="no driven crease hinges left"):
         refold(flat, target, steps="crease0,crease0")
+
+
+def test_newton_chord_and_full_newton_both_meet_acceptance():
+    flat, target = reflect_pair(2, columns=10, rows=3)
+    seqs = []
+    for chord in (True, False):
+        s = RefoldSolver(flat, target)
+        s.chord = chord
+        d, _ = s.driven_hinges()
+        F, st = build_schedule(s.panel, flat, d, None, 6)
+        seqs.append(s.solve(F, d, st))
+        assert_acceptance(seqs[-1])
+    # different points of the same manifold only where closure leaves freedom: close, same ends
+    assert np.abs(seqs[0].angles - seqs[1].angles).max() < 1e-3
+    np.testing.assert_array_equal(seqs[0].angles[[0, -1]], seqs[1].angles[[0, -1]])

@@ -56,6 +56,7 @@ class RefoldSolver:
                                                  length_rtol, target_name)
         self.tol, self.max_iter = float(tol), int(max_iter)
         self.linear_solver = MinNormSolver(solver)
+        self.chord = True
         self.panel_size = flat.size
         self.loops = build_vertex_loops(self.panel.topology, self.flat_vertices)
         self.fixed_face = self._pick_fixed_face(fixed_face, flat_name)
@@ -128,7 +129,7 @@ class RefoldSolver:
     def fold_state(self, rho_ref: np.ndarray, rho_start: np.ndarray, driven: np.ndarray) -> NewtonResult:
         """Project the reference angles onto the rigid-fold manifold (driven hinges held at rho_ref)."""
         return project_to_constraints(self.loops, rho_start, rho_ref, self.pattern(driven), self.linear_solver,
-                                      tol=self.tol, max_iter=self.max_iter)
+                                      tol=self.tol, max_iter=self.max_iter, chord=self.chord)
 
     def _advance(self, rho_prev, ref_prev, ref_next, driven):
         """Solve the next state: Newton from the reference angles (so the state depends on its fraction

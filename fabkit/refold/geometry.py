@@ -4,7 +4,7 @@ A BFS spanning tree over the triangle adjacency (scipy.sparse.csgraph) starts at
 which keeps its flat position (the panel frame: the clamped face sits at the fixture). A child face's
 rigid transform is its parent's composed with the rotation by the hinge angle about the shared edge
 (in the flat pattern), so T_child = T_parent * Rot(edge line, sigma * rho). Faces are processed one
-tree level at a time, each level in one vectorised scipy Rotation call.
+tree level at a time (all hinge rotations in one vectorised scipy Rotation call).
 """
 from __future__ import annotations
 
@@ -88,15 +88,20 @@ def face_transforms(tree: FaceTree, rho: np.ndarray) -> tuple[np.ndarray, np.nda
     R[tree.root] = np.eye(3)
     T[tree.root] = 0.0
     rho = np.asarray(rho)
+    child = np.flatnonzero(tree.parent >= 0)
+    e_all = tree.parent_edge[child]
+    Q_all = np.empty((F, 3, 3))
+    Q_all[child] = Rotation.from_rotvec(tree.axis[e_all] * (tree.sign[child] * rho[e_all])[:, None]).as_matrix()
+    # translation part of each hinge rotation about its edge line: x0 - Q x0
+    x0 = np.zeros((F, 3))
+    x0[child] = tree.point[e_all]
+    s_all = x0 - np.einsum("fij,fj->fi", Q_all, x0)
     for faces in tree.levels[1:]:
         p = tree.parent[faces]
-        e = tree.parent_edge[faces]
-        Q = Rotation.from_rotvec(tree.axis[e] * (tree.sign[faces] * rho[e])[:, None]).as_matrix()
-        x = tree.point[e]
         Rp = R[p]
-        R[faces] = Rp @ Q
+        R[faces] = Rp @ Q_all[faces]
         # x -> Rp (Q (x - x0) + x0) + Tp
-        T[faces] = np.einsum("fij,fj->fi", Rp, x - np.einsum("fij,fj->fi", Q, x)) + T[p]
+        T[faces] = np.einsum("fij,fj->fi", Rp, s_all[faces]) + T[p]
     return R, T
 
 
