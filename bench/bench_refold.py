@@ -67,7 +67,7 @@ def main(frames: int = 100) -> dict:
     r, seq, solver = _run(*big, frames, "direct")
     rows.append({"case": "sequence", **r, "target_s": 2.0, "ratio": 1.0})
     small = _pair(24, [8, 8, 8])             # 25 x 25 = 625 vertices
-    small_frames = 20
+    small_frames = 6
     base, _, _ = _run(*small, small_frames, "direct")
     rows.append({"case": "sequence", **base, "ratio": 1.0})
     for method in ("lsmr", "dense"):
