@@ -117,3 +117,21 @@ def test_writers_leave_nothing_behind_on_a_missing_directory(tmp_path, folded_pa
     with pytest.raises(InputError, match="does not exist"):
         write_svg(pattern, tmp_path / "nope" / "p.svg")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_labels_sit_inside_the_sheet_and_closed_meshes_are_refused(folded_pattern):
+    import shapely
+
+    from fabkit.errors import MeshError
+    from fabkit.mesh import PolyMesh
+
+    mesh, dev, assign, pattern = folded_pattern
+    sheet = shapely.Polygon(pattern.outlines[0])
+    edge_labels = [lab for lab in pattern.labels if lab.text.startswith("e")]
+    assert len(edge_labels) == int(mesh.topology.boundary_edge_mask.sum())
+    assert all(sheet.contains(shapely.Point(lab.x, lab.y)) for lab in pattern.labels)
+    tetra = PolyMesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float), [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    with pytest.raises(MeshError, match="no boundary"):
+        cut_pattern(tetra, np.zeros((4, 2)), crease_assignment(tetra))
+    with pytest.raises(ValueError, match="one row per vertex"):
+        cut_pattern(mesh, dev.uv[:-1], assign)

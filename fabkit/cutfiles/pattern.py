@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fabkit.cutfiles.creases import CreaseAssignment, chain_edges
+from fabkit.errors import MeshError
 from fabkit.mesh import PolyMesh
 
 __all__ = ["CutPattern", "Label", "cut_pattern", "LAYERS", "MM_PER_M"]
@@ -53,6 +54,10 @@ def cut_pattern(mesh: PolyMesh, uv: np.ndarray, assignment: CreaseAssignment, pa
                 label_edges: bool = False) -> CutPattern:
     """Build the drawing of `uv` (metres, the panel's vertex order) with `assignment`'s creases."""
     P = np.asarray(uv, dtype=np.float64)[:, :2] * MM_PER_M
+    if P.shape[0] != mesh.n_vertices or not np.all(np.isfinite(P[mesh.topology.used_vertex_mask])):
+        raise ValueError(f"uv must be finite with one row per vertex ({mesh.n_vertices}), got shape {P.shape}")
+    if not mesh.boundary_loops:
+        raise MeshError("the mesh has no boundary: there is no outline to cut")
     loops = [P[loop] for loop in mesh.boundary_loops]
     areas = [0.5 * np.sum(q[:, 0] * np.roll(q[:, 1], -1) - q[:, 1] * np.roll(q[:, 0], -1)) for q in loops]
     order = np.argsort(-np.abs(np.array(areas)))
@@ -66,15 +71,18 @@ def cut_pattern(mesh: PolyMesh, uv: np.ndarray, assignment: CreaseAssignment, pa
     size = float(np.linalg.norm(hi - lo))
     h = float(np.clip(0.02 * size, 2.0, 20.0))
     labels = []
+    t = mesh.topology
+    fc = np.add.reduceat(P[t.face_indices], t.face_offsets[:-1], axis=0) / t.face_sizes[:, None]
     if panel_id:
         # the label goes at the centroid of the face nearest the development's centroid: inside the sheet
-        t = mesh.topology
-        fc = np.add.reduceat(P[t.face_indices], t.face_offsets[:-1], axis=0) / t.face_sizes[:, None]
         f = int(np.argmin(np.linalg.norm(fc - P[t.used_vertex_mask].mean(axis=0), axis=1)))
         labels.append(Label(str(panel_id), float(fc[f, 0]), float(fc[f, 1]), h))
     if label_edges:
-        b = np.flatnonzero(mesh.topology.boundary_edge_mask)
+        # edge ids sit just inside the sheet: 40 % of the way from the edge's midpoint to its face's centroid
+        b = np.flatnonzero(t.boundary_edge_mask)
+        face = t.edge_faces[b].max(axis=1)
         mid = 0.5 * (P[mesh.edges[b, 0]] + P[mesh.edges[b, 1]])
-        labels.extend(Label(f"e{int(e)}", float(x), float(y), h / 3) for e, (x, y) in zip(b, mid))
+        pos = mid + 0.4 * (fc[face] - mid)
+        labels.extend(Label(f"e{int(e)}", float(x), float(y), h / 3) for e, (x, y) in zip(b, pos))
     return CutPattern(outlines=outlines, polylines=polylines, labels=tuple(labels),
                       extent=np.array([lo, hi]), panel_id=str(panel_id))
