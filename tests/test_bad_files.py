@@ -27,6 +27,8 @@ EXPECTED: dict[str, str] = {
     "coords-four-values.fold": "vertices_coords[1]",
     "coords-not-a-list.fold": "vertices_coords must be a list",
     "coords-string-entry.fold": "vertices_coords[1]",
+    "deeply-nested.fold": "JSON nested too deeply",
+    "deeply-nested-data.fold": "a field is nested too deeply",
     "duplicate-edge.fold": "edges 5 and 6 both join vertices",
     "edges-float-index.fold": "edges_vertices[3]",
     "edges-index-out-of-range.fold": "edge 6 refers to vertex [4, 6]",

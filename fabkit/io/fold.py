@@ -601,7 +601,12 @@ def load_fold(path: str | os.PathLike) -> FoldModel:
         raise InputError(f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", source=source) from None
     except ValueError as exc:
         raise InputError(str(exc), source=source) from None
-    return parse_fold(d, source)
+    except RecursionError:
+        raise InputError("JSON nested too deeply to be a FOLD file", source=source) from None
+    try:
+        return parse_fold(d, source)
+    except RecursionError:
+        raise InputError("a field is nested too deeply (FOLD arrays are at most two levels)", source=source) from None
 
 
 def _reject_constant(name: str) -> float:
