@@ -182,3 +182,21 @@ def test_readme_example_runs(tmp_path, monkeypatch):
         assert main(argv[1:] + ["-q"]) == 0, argv
     assert (tmp_path / "seq.fold").exists() and (tmp_path / "angles.png").exists()
     assert json.loads((tmp_path / "refold.json").read_text())["ok"]
+
+
+def test_cli_steps_from_a_json_schedule(pair_files, tmp_path):
+    d, flat, target = pair_files
+    from fabkit.refold import RefoldSolver
+    from fabkit.refold.sequence import middle_row_hinges
+
+    s = RefoldSolver(flat, target)
+    mid = middle_row_hinges(flat, s.panel)
+    sched = tmp_path / "schedule.json"
+    sched.write_text(json.dumps([[s.panel.edges[mid[1]].tolist()], [s.panel.edges[mid[0]].tolist()]]))
+    out, rep = tmp_path / "a.fold", tmp_path / "a.json"
+    assert main(["refold", str(d / "flat.obj"), str(d / "target.obj"), "-o", str(out), "--steps", str(sched),
+                 "--frames", "2", "--report", str(rep), "-q"]) == 0
+    states = json.loads(rep.read_text())["states"]
+    assert [st["step"] for st in states] == [-1, 0, 1]
+    assert main(["refold", str(d / "flat.obj"), str(d / "target.obj"), "-o", str(out), "--steps", str(sched),
+                 "--drive", "all", "-q"]) == 2

@@ -218,8 +218,7 @@ def test_newton_chord_and_full_newton_both_meet_acceptance():
     flat, target = reflect_pair(2, columns=10, rows=3)
     seqs = []
     for chord in (True, False):
-        s = RefoldSolver(flat, target)
-        s.chord = chord
+        s = RefoldSolver(flat, target, chord=chord)
         d, _ = s.driven_hinges()
         F, st = build_schedule(s.panel, flat, d, None, 6)
         seqs.append(s.solve(F, d, st))

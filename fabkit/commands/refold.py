@@ -25,7 +25,8 @@ naming the worst edge, nothing written.
 
 --drive FILE: JSON list of FLAT edge ids or [u, v] vertex pairs; a list of such lists (steps folded
 one after another); or {"drive": [...], "steps": [[...], ...]}. --steps crease0,crease1 folds the
-middle-row creases one crease row at a time (stripK = the creases bounding strip K).
+middle-row creases one crease row at a time (stripK = the creases bounding strip K); --steps FILE
+takes a JSON schedule (a list of edge lists, folded in order; they are the driven hinges).
 
 Exit codes: 0 ok; 1 TARGET is not a fold of FLAT, a state did not converge, the last state misses
 the target by more than --target-tol, or faces pass through each other (files are still written
@@ -45,7 +46,8 @@ def add_arguments(parser) -> None:
                         help="states per folding step, flat and target included (default 20)")
     parser.add_argument("--drive", default="middle-row", metavar="middle-row|all|FILE",
                         help="prescribed hinges: the middle-row creases (default), all creases, or a JSON file")
-    parser.add_argument("--steps", metavar="LIST", help="fold crease rows one after another, e.g. crease0,crease1")
+    parser.add_argument("--steps", metavar="LIST|FILE",
+                        help="fold crease rows one after another (e.g. crease0,crease1), or a JSON schedule file")
     parser.add_argument("--fixed-face", type=int, metavar="F", help="face clamped at the fixture (FLAT face id)")
     parser.add_argument("--glb", metavar="F.glb", help="all states side by side in one GLB scene (viewing)")
     parser.add_argument("--obj-dir", metavar="DIR", help="one OBJ per state (quads and tags kept): DIR/state_000.obj ...")
@@ -126,11 +128,17 @@ def run(args) -> int:
         driven, steps = load_drive_file(args.drive, flat, solver.panel)
         notes = []
     if args.steps:
-        if steps is not None:
-            from fabkit.errors import InputError
+        from fabkit.errors import InputError
 
+        if steps is not None:
             raise InputError("the drive file already has steps", source="--steps")
-        steps = parse_steps(args.steps, solver.panel, driven)
+        if Path(args.steps).is_file():  # a JSON schedule: its steps also say which hinges are driven
+            if args.drive != "middle-row":
+                raise InputError("give the driven hinges either in --drive or in the --steps file", source="--steps")
+            driven, steps = load_drive_file(args.steps, flat, solver.panel)
+            steps = steps if steps is not None else [driven]
+        else:
+            steps = parse_steps(args.steps, solver.panel, driven)
     fractions, step_of_state = build_schedule(solver.panel, flat, driven, steps, args.frames)
     t0 = time.perf_counter()
     with progress(args, "refolding", total=len(fractions)) as advance:

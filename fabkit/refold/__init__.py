@@ -40,11 +40,14 @@ class RefoldSolver:
     position (default: the middle-row face of the middle strip, else the face nearest the centroid).
     length_rtol: refuse (NotAFoldError) when an edge length differs by more (relative).
     solver: "direct" (sparse factorisation), "lsmr" (sparse iterative) or "dense" (pinv baseline).
+    tol: loop-closure residual [rad] Newton must reach; chord: reuse a state's factorisation while
+    it contracts (False: factorise at every Newton step).
     """
 
     def __init__(self, flat: PolyMesh, target: PolyMesh, *, fixed_face: int | None = None,
                  diagonal: str = "short", length_rtol: float = DEFAULT_LENGTH_RTOL, solver: str = "direct",
-                 tol: float = DEFAULT_TOL, max_iter: int = 30, flat_name: str = "FLAT", target_name: str = "TARGET"):
+                 tol: float = DEFAULT_TOL, max_iter: int = 30, chord: bool = True, flat_name: str = "FLAT",
+                 target_name: str = "TARGET"):
         if solver not in SOLVERS:
             raise ValueError(f"unknown solver {solver!r} ({', '.join(SOLVERS)})")
         check_pair(flat, target, flat_name, target_name)
@@ -56,7 +59,7 @@ class RefoldSolver:
                                                  length_rtol, target_name)
         self.tol, self.max_iter = float(tol), int(max_iter)
         self.linear_solver = MinNormSolver(solver)
-        self.chord = True
+        self.chord = bool(chord)
         self.panel_size = flat.size
         self.loops = build_vertex_loops(self.panel.topology, self.flat_vertices)
         self.fixed_face = self._pick_fixed_face(fixed_face, flat_name)
@@ -67,13 +70,11 @@ class RefoldSolver:
             raise InputError(str(exc), source=flat_name) from None
         tmesh = PolyMesh(target.vertices, topology=self.panel.topology, validate=False)
         self.target_angles = dihedral_angles(tmesh)
-        E = self.panel.topology.n_edges
         self.target_angles[~self.panel.hinge_mask] = 0.0
         self.flat_lengths = np.linalg.norm(self.flat_vertices[self.panel.edges[:, 1]]
                                            - self.flat_vertices[self.panel.edges[:, 0]], axis=1)
         self.hinges = np.flatnonzero(self.panel.hinge_mask)
         self._patterns: dict[bytes, JacobianPattern] = {}
-        assert len(self.target_angles) == E
 
     # ---- set-up helpers --------------------------------------------------------------------
     def _pick_fixed_face(self, fixed_face: int | None, flat_name: str) -> int:
