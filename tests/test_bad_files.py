@@ -28,6 +28,7 @@ EXPECTED: dict[str, str] = {
     "coords-not-a-list.fold": "vertices_coords must be a list",
     "coords-string-entry.fold": "vertices_coords[1]",
     "deeply-nested.fold": "JSON nested too deeply",
+    "deeply-nested-data.obj": "line 5: cannot read fabkit face_data 's' (maximum recursion depth",
     "deeply-nested-data.fold": "a field is nested too deeply",
     "duplicate-edge.fold": "edges 5 and 6 both join vertices",
     "edges-float-index.fold": "edges_vertices[3]",

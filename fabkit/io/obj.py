@@ -68,7 +68,7 @@ def _parse_data(match: re.Match, number: int, source: str) -> tuple[str, str, np
     try:
         values = json.loads(payload)
         arr = np.array(values, dtype=np.dtype(dtype))
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, RecursionError) as exc:
         raise InputError(f"line {number}: cannot read fabkit {kind} '{name}' ({exc})", source=source) from None
     if arr.ndim == 0:
         raise InputError(f"line {number}: fabkit {kind} '{name}' is not an array", source=source)
