@@ -51,7 +51,8 @@ def _load(name: str):
         raise
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The full parser; with `only`, just that subcommand's module is imported (fast start-up)."""
     parser = _Parser(
         prog="fabkit",
         description="Curved-crease folded panels: from a coarse mesh to a checked UR robot fold program.",
@@ -62,6 +63,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"fabkit {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, summary in COMMANDS.items():
+        if only is not None and name != only:
+            sub.add_parser(name, help=summary, add_help=False)  # listed in --help, never parsed
+            continue
         module = _load(name)
         if module is None:
             p = sub.add_parser(name, help=f"{summary} [not built yet]", description=f"{summary}. Not built yet.")
@@ -82,8 +86,18 @@ def _not_built(name: str):
     return run
 
 
+def _chosen_command(argv: list[str]) -> str | None:
+    """The subcommand named on the command line (first non-option word), if it is one of ours."""
+    for word in argv:
+        if not word.startswith("-"):
+            return word if word in COMMANDS else None
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    chosen = _chosen_command(argv)
+    parser = build_parser(only=chosen if chosen is not None else "")
     args = parser.parse_args(argv)
     if not getattr(args, "command", None):
         parser.print_help()

@@ -112,6 +112,9 @@ def panel_task(task: dict) -> dict:
     from fabkit.unfold import develop
 
     t0 = time.perf_counter()
+    # fresh, contiguous copies: arrays that arrive deserialised (dask) may sit at another memory
+    # alignment, and numpy's SIMD reductions can round differently on differently aligned data
+    task = {k: (np.array(v, copy=True, order="C") if isinstance(v, np.ndarray) else v) for k, v in task.items()}
     mesh = PolyMesh(task["vertices"], task["faces"], validate=False)
     out = {"id": task["id"]}
     if task.get("relax", True):
