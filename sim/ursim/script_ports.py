@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 import socket
 import threading
+import time
 
 from sim.ursim.control_script import ControlScript, is_control_script
 from sim.ursim.urscript import ScriptError, URScriptProgram, parse_program
@@ -46,12 +47,21 @@ def program_from_text(ctrl, text: str, name: str = "<script>"):
         return _Rejected(name)
 
 
+#: A controller stops the running program when a new one arrives, then needs a moment to compile
+#: and start it (tens of ms for ur_rtde's 40-50 KB script); the stand-in waits this long (s).
+COMPILE_DELAY_S = 0.04
+
+
 def run_text(ctrl, text: str, port: int) -> None:
     program = program_from_text(ctrl, text, f"port {port}")
     if isinstance(program, _Rejected):
         ctrl.stop_program("a program that does not compile was sent")
         return
     ctrl.log(f"port {port}: program {program.name} received ({len(text)} bytes)")
+    with ctrl.lock:
+        if ctrl.program is not None and ctrl.program.running:
+            ctrl.stop_program("replaced by a new program")
+    time.sleep(COMPILE_DELAY_S)
     ctrl.start_program(program)
 
 
