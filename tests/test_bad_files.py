@@ -31,6 +31,7 @@ EXPECTED: dict[str, str] = {
     "deeply-nested-data.obj": "line 5: cannot read fabkit face_data 's' (maximum recursion depth",
     "deeply-nested-data.fold": "a field is nested too deeply",
     "duplicate-edge.fold": "edges 5 and 6 both join vertices",
+    "exponent-overflow.fold": "vertices_coords[4] is [100,1e999999999]: coordinates must be finite",
     "edges-float-index.fold": "edges_vertices[3]",
     "edges-index-out-of-range.fold": "edge 6 refers to vertex [4, 6]",
     "edges-negative-index.fold": "edge 6 refers to vertex [-1, 5]",
@@ -123,3 +124,53 @@ def test_python_readers_raise_input_error_naming_the_file(name):
     assert str(err.value).startswith(f"{path}: ")
     assert EXPECTED[name] in str(err.value)
     assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("kind", ["obj", "fold"])
+def test_mutated_files_fail_only_with_input_errors(tmp_path, kind):
+    """Seeded fuzzing: byte edits, deletions, duplications and truncations of a good file either
+    still read or raise InputError (never another exception, which the CLI would call a bug)."""
+    import random
+    import warnings
+
+    import numpy as np
+
+    from fabkit.fold import FoldFrame, FoldModel
+    from fabkit.io import load_mesh, save_fold, save_obj
+    from io_meshes import folded_coords, mixed_mesh
+
+    mesh = mixed_mesh()
+    good = tmp_path / f"good.{kind}"
+    if kind == "obj":
+        save_obj(mesh, good)
+    else:
+        save_fold(FoldModel.from_mesh(mesh, frames=[FoldFrame(folded_coords(mesh, 0.3))]), good)
+    src = good.read_bytes()
+    rng = random.Random(2024)
+    bad = tmp_path / f"bad.{kind}"
+    outcomes = {"read": 0, "refused": 0}
+    for _ in range(300):
+        b = bytearray(src)
+        op = rng.randrange(4)
+        for _ in range(rng.randrange(1, 4)):
+            if op == 0 and b:
+                b[rng.randrange(len(b))] = rng.choice(b'0123456789-.,[]{}":eE nulltrueVMBFJ/#\n')
+            elif op == 1 and b:
+                k = rng.randrange(len(b))
+                del b[k:k + rng.randrange(1, 20)]
+            elif op == 2:
+                k = rng.randrange(len(b))
+                b[k:k] = b[k:k + rng.randrange(1, 40)]
+            else:
+                b = b[:rng.randrange(len(b) + 1)]
+        bad.write_bytes(bytes(b))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                m = load_mesh(bad)
+                assert np.all(np.isfinite(m.vertices))
+                outcomes["read"] += 1
+            except InputError as exc:
+                assert str(exc).startswith(f"{bad}: ") and "\n" not in str(exc)
+                outcomes["refused"] += 1
+    assert outcomes["refused"] > 100  # the mutations really break files

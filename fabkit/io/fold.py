@@ -48,7 +48,7 @@ WRITE_UNIT = "mm"
 # `repr(x)` shifted three places (metres -> mm) and read back by shifting the file's digits, so every
 # double survives a round trip bitwise. Angles are written as the shortest degree string that reads
 # back (through pi/180 to 40 digits) to the same double.
-_CTX = decimal.Context(prec=40)
+_CTX = decimal.Context(prec=40, Emax=decimal.MAX_EMAX, Emin=decimal.MIN_EMIN)
 
 
 def _pi(digits: int = 50) -> decimal.Decimal:
@@ -400,11 +400,20 @@ def _data_array(value: Any, key: str, source: str) -> np.ndarray:
     return arr
 
 
-def _short(x: Any) -> str:
+def _show(x: Any, depth: int = 0) -> str:
+    """JSON-like text of a value as the file wrote it (numbers keep their text)."""
+    if isinstance(x, _Num):
+        return x.text
+    if isinstance(x, list) and depth < 3:
+        return "[" + ",".join(_show(v, depth + 1) for v in x[:8]) + (",...]" if len(x) > 8 else "]")
     try:
-        s = json.dumps(x, separators=(",", ":")) if not isinstance(x, float) or math.isfinite(x) else str(x)
-    except (TypeError, ValueError):
-        s = repr(x)
+        return json.dumps(x, separators=(",", ":"))
+    except (TypeError, ValueError, RecursionError):
+        return repr(x)
+
+
+def _short(x: Any) -> str:
+    s = _show(x)
     return s if len(s) <= 40 else s[:37] + "..."
 
 
