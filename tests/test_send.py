@@ -150,3 +150,39 @@ def test_edited_toolpath_is_refused(job, tmp_path, capsys):
     edited.write_text(json.dumps(d))
     r = run_fabkit(capsys, "send", str(edited), "--check", str(check), "--host", "127.0.0.254")
     assert r.returncode == 2 and "sha256" in r.stderr
+
+
+def test_printed_matches_ur_rtde_path_printing(rng):
+    """The sender's model of ur_rtde's path number printing is checked against ur_rtde itself."""
+    import rtde_control
+
+    from robot.sender import printed
+
+    values = np.r_[rng.uniform(-2, 2, 200), rng.uniform(-1e-3, 1e-3, 20), [1e-7, 1234.56789, 0.123456789, 0.0]]
+    for chunk in np.array_split(values, 40):
+        pose = list(chunk[:6]) + [0.0] * (6 - len(chunk[:6]))
+        path = rtde_control.Path()
+        E = rtde_control.PathEntry
+        path.addEntry(E(E.MoveL, E.PositionTcpPose, pose + [0.25, 1.2, 0.0]))
+        text = re.search(r"movel\(p\[([^\]]*)\]", path.toScriptCode()).group(1)
+        assert [float(x) for x in text.split(",")] == [printed(x) for x in pose]
+
+
+def test_overlapping_blends_are_refused_before_sending(job, tmp_path, capsys):
+    from robot.sender import SendError, validate_waypoints
+
+    tp, path, check = job
+    wps = [dict(w) for w in tp.waypoints]
+    validate_waypoints(wps)
+    seg = np.linalg.norm(np.subtract(wps[11]["pose"][:3], wps[10]["pose"][:3]))
+    wps[10]["r"] = wps[11]["r"] = 0.6 * seg
+    with pytest.raises(SendError, match=r"waypoints (9-10|10-11): blend radii .* overlap"):
+        validate_waypoints(wps)
+    wps = [dict(w) for w in tp.waypoints]
+    wps[-1]["r"] = 0.001
+    with pytest.raises(SendError, match="last waypoint must have blend radius 0"):
+        validate_waypoints(wps)
+    wps = [dict(w) for w in tp.waypoints]
+    wps[3]["v"] = 3.5
+    with pytest.raises(SendError, match=r"waypoint 3: speed 3.5 m/s outside \(0, 3.0\]"):
+        validate_waypoints(wps)

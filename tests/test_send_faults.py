@@ -49,6 +49,7 @@ def send(capsys, *args):
 @pytest.mark.parametrize("fault, reason", [
     ("drop_rtde", r"(controller link lost|stalled|stopped)"),
     ("stall 30", r"RTDE stream stalled"),
+    ("program_stop", r"the control script stopped \(program stopped on the controller\)"),
 ])
 def test_link_faults_mid_path_end_in_bounded_time(standin, job, tmp_path, capsys, fault, reason):
     tp, path, check = job

@@ -18,8 +18,13 @@ pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not Non
 
 
 @pytest.fixture(scope="module")
-def standin(tmp_path_factory):
-    s = StandIn("--unlock-delay", "5", "--programs", str(tmp_path_factory.mktemp("programs")),
+def programs(tmp_path_factory):
+    return tmp_path_factory.mktemp("programs")
+
+
+@pytest.fixture(scope="module")
+def standin(tmp_path_factory, programs):
+    s = StandIn("--unlock-delay", "5", "--programs", str(programs),
                 log=tmp_path_factory.mktemp("ursim") / "ursim.log")
     yield s
     s.stop()
@@ -308,3 +313,33 @@ def test_cb3_version_streams_at_125_hz(standin_cb3):
         assert r.getRobotMode() == 7
     finally:
         r.disconnect()
+
+
+def test_dashboard_load_play_pause_stop(standin, programs):
+    import dashboard_client
+
+    q0 = np.array(standin.state()["q"])
+    (programs / "wave.script").write_text(
+        "def wave():\n"
+        f"  movej([{', '.join(repr(float(x)) for x in q0 + 0.3)}], a=1.0, v=0.3, r=0)\n"
+        f"  movej([{', '.join(repr(float(x)) for x in q0)}], a=1.0, v=0.3, r=0)\n"
+        "end\n")
+    d = dashboard_client.DashboardClient(standin.host)
+    d.connect()
+    try:
+        d.loadURP("wave.urp")  # raises unless the reply contains "Loading program:"
+        assert d.getLoadedProgram().endswith("wave.script")
+        d.play()  # raises unless the reply is exactly "Starting program"
+        assert _wait(lambda: d.running())
+        assert d.programState() == "PLAYING wave"
+        d.pause()
+        assert d.programState() == "PAUSED wave"
+        q_paused = np.array(standin.state()["q"])
+        time.sleep(0.1)
+        assert np.array_equal(np.array(standin.state()["q"]), q_paused)  # paused: the arm holds
+        d.play()
+        assert d.programState() == "PLAYING wave"
+        d.stop()
+        assert not d.running() and d.programState().startswith("STOPPED")
+    finally:
+        d.disconnect()
