@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fabkit.mesh import PolyMesh
+from fabkit.mesh import PolyMesh, cross3
 
 TWO_PI = 2.0 * np.pi
 
@@ -28,7 +28,7 @@ def corner_angles(mesh: PolyMesh, vertices: np.ndarray | None = None) -> np.ndar
     here = V[t.face_indices]
     u = V[t.face_indices[t.corner_next]] - here
     w = V[t.face_indices[t.corner_prev]] - here
-    c = np.cross(u, w)
+    c = cross3(u, w)
     sin = np.linalg.norm(c, axis=1)
     cos = np.einsum("ij,ij->i", u, w)
     theta = np.arctan2(sin, cos)
@@ -124,7 +124,7 @@ def dihedral_angles(mesh: PolyMesh, normals: np.ndarray | None = None) -> np.nda
     e = mesh.vertices[E[inner, 1]] - mesh.vertices[E[inner, 0]]  # lo -> hi: the left face runs along it
     e /= np.linalg.norm(e, axis=1, keepdims=True)
     nl, nr = n[fl], n[fr]
-    s = np.einsum("ij,ij->i", np.cross(nr, nl), e)
+    s = np.einsum("ij,ij->i", cross3(nr, nl), e)
     c = np.einsum("ij,ij->i", nl, nr)
     out[inner] = np.arctan2(s, c)
     return out

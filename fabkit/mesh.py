@@ -23,6 +23,17 @@ from fabkit.errors import MeshError
 __all__ = ["MeshTopology", "PolyMesh", "validate_mesh", "faces_to_csr"]
 
 
+def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (k, 3) arrays (explicit components: several times faster than np.cross)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    np.subtract(a1 * b2, a2 * b1, out=out[..., 0])
+    np.subtract(a2 * b0, a0 * b2, out=out[..., 1])
+    np.subtract(a0 * b1, a1 * b0, out=out[..., 2])
+    return out
+
+
 def _readonly(a: np.ndarray) -> np.ndarray:
     a = np.asarray(a)
     a.setflags(write=False)
@@ -92,9 +103,12 @@ class MeshTopology:
         lo, hi = np.minimum(u, v), np.maximum(u, v)
         keys = lo * n + hi
         uniq, inverse = np.unique(keys, return_inverse=True)
-        self.edges = _readonly(np.stack([uniq // n, uniq % n], axis=1).astype(np.int64) if len(uniq)
-                               else np.zeros((0, 2), np.int64))
-        self.halfedge_edge = _readonly(inverse.astype(np.int64))
+        if len(uniq):
+            q, r = np.divmod(uniq, n)
+            self.edges = _readonly(np.stack([q, r], axis=1).astype(np.int64, copy=False))
+        else:
+            self.edges = _readonly(np.zeros((0, 2), np.int64))
+        self.halfedge_edge = _readonly(inverse.astype(np.int64, copy=False))
         E = len(uniq)
         counts = np.bincount(inverse, minlength=E)
         over = np.flatnonzero(counts > 2)
@@ -395,7 +409,7 @@ class PolyMesh:
         here = V[t.face_indices]
         u = V[t.face_indices[t.corner_next]] - here
         w = V[t.face_indices[t.corner_prev]] - here
-        return _readonly(np.cross(u, w))
+        return _readonly(cross3(u, w))
 
     @cached_property
     def face_normal_sums(self) -> np.ndarray:
@@ -423,7 +437,7 @@ class PolyMesh:
         """Vector-area magnitude per face (exact for planar polygons)."""
         V = self.vertices
         t = self.topology
-        a = np.cross(V[t.face_indices], V[t.face_indices[t.corner_next]])
+        a = cross3(V[t.face_indices], V[t.face_indices[t.corner_next]])
         s = np.add.reduceat(a, self.face_offsets[:-1], axis=0) if self.n_faces else np.zeros((0, 3))
         return _readonly(0.5 * np.linalg.norm(s, axis=1))
 
