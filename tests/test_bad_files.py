@@ -46,6 +46,7 @@ EXPECTED: dict[str, str] = {
     "face-two-vertices.fold": "face 1 has 2 vertices",
     "face-two-vertices.obj": "line 5: face 0 has 2 vertices",
     "faces-data-wrong-length.fold": "faces_fabkit:strip has 3 entries for 2 faces",
+    "faces-index-huge.fold": "faces_vertices[1] is [1,2,99999999999999999999,4]: vertex index out of range",
     "faces-index-out-of-range.fold": "face 1 refers to vertex 7",
     "faces-negative-index.fold": "face 1 refers to vertex -1",
     "foldangle-over-180.fold": "outside [-180, 180]",

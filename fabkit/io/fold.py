@@ -340,6 +340,8 @@ def _index_rows(value: Any, key: str, width: int | None, source: str) -> list[li
         if not isinstance(r, list) or (width is not None and len(r) != width) or not all(_is_index(c) for c in r):
             need = f"{width} vertex indices" if width else "a list of vertex indices"
             raise InputError(f"{key}[{i}] is {_short(r)}: expected {need} (integers)", source=source)
+        if any(not -2**62 < c < 2**62 for c in r):  # would not even fit the int64 index arrays
+            raise InputError(f"{key}[{i}] is {_short(r)}: vertex index out of range", source=source)
     return rows
 
 
