@@ -398,7 +398,8 @@ def _data_array(value: Any, key: str, source: str) -> np.ndarray:
     except ValueError:
         arr = None
     if arr is None or arr.dtype == object:
-        raise InputError(f"{key} is not a regular array (rows of different lengths)", source=source)
+        raise InputError(f"{key} is not a regular array (rows of different lengths, or integers beyond 64 bits)",
+                         source=source)
     return arr
 
 
