@@ -224,6 +224,11 @@ class Sender:
         remote = self.call("dashboard", "is in remote control")
         if "true" not in remote.lower():
             raise _Fault(f"preflight: remote control is off ({remote!r}); switch the pendant to Remote Control")
+        model = self.call("dashboard", "get robot model").strip()
+        want = str(self.tp.robot).lower().removesuffix("e").upper()  # e-Series answer "UR5", "UR10"
+        if model.upper() != want:
+            raise _Fault(f"preflight: the controller reports robot model {model!r}, the toolpath is for "
+                         f"{self.tp.robot}")
         return version
 
     def _wait_dashboard(self, command: str, words: tuple, timeout: float) -> str:
@@ -365,8 +370,8 @@ class Sender:
         if self.worker is None or not self.worker.alive:
             return "worker already gone"
         try:
-            self.call("stop_l", self.s.stop_decel, timeout=2.0)
-            return "stopL sent"
+            ok = self.call("stop_l", self.s.stop_decel, timeout=2.0)
+            return "stopL done" if ok else "stopL returned False (control script not running: the arm is stopped)"
         except (WorkerError, CallError) as exc:
             return f"stopL failed: {exc}"
 

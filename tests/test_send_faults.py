@@ -132,3 +132,15 @@ def test_worker_is_killed_when_it_hangs():
     finally:
         w.kill()
         mute.close()
+
+
+def test_toolpath_for_another_robot_model_is_refused(standin, job, tmp_path, capsys):
+    import dataclasses
+
+    tp, path, check = job
+    other = dataclasses.replace(tp, robot="ur10e")  # same waypoints (same hash), planned for a UR10e
+    other_path = tmp_path / "PATH.json"
+    other.save(other_path)
+    rc, out, err, dt = send(capsys, str(other_path), "--check", str(check), "--host", standin.host)
+    assert rc == 1
+    assert "preflight: the controller reports robot model 'UR5', the toolpath is for ur10e" in err
