@@ -131,6 +131,8 @@ def test_unused_vertices_warn_and_keep_ids(tmp_path):
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n# fabkit vertex_data p bool [true]\n",
      "line 5: fabkit vertex_data 'p' has 1 entries for 3 vertices"),
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n# fabkit face_data s notadtype [1]\n", "line 5: cannot read"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n# fabkit face_data s int8 [1000]\n", "line 5: cannot read fabkit"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n# fabkit face_data s object [1]\n", "is not bool, int, float or str"),
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nbogus 1 2\n", "line 5: unknown OBJ statement bogus"),
     ("v 0 0 0\nv 1 0 0\nv 0 1_0 0\nf 1 2 3\n", "line 3: vertex coordinates '0 1_0 0' are not numbers"),
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3_\n", "line 4: face corner '3_' is not a vertex index"),

@@ -66,9 +66,12 @@ def _logical_lines(text: str):
 def _parse_data(match: re.Match, number: int, source: str) -> tuple[str, str, np.ndarray]:
     kind, name, dtype, payload = match.groups()
     try:
+        dt = np.dtype(dtype)
+        if dt.kind not in "biufU":
+            raise ValueError(f"dtype {dtype} is not bool, int, float or str")
         values = json.loads(payload)
-        arr = np.array(values, dtype=np.dtype(dtype))
-    except (ValueError, TypeError, RecursionError) as exc:
+        arr = np.array(values, dtype=dt)
+    except (ValueError, TypeError, OverflowError, RecursionError) as exc:
         raise InputError(f"line {number}: cannot read fabkit {kind} '{name}' ({exc})", source=source) from None
     if arr.ndim == 0:
         raise InputError(f"line {number}: fabkit {kind} '{name}' is not an array", source=source)
