@@ -147,3 +147,25 @@ def test_info_frame_option_measures_a_fold_state(tmp_path, capsys):
     save_obj(mesh, tmp_path / "m.obj")
     assert main(["info", str(tmp_path / "m.obj"), "--frame", "1"]) == 2
     assert "--frame: only FOLD files have frames" in capsys.readouterr().err
+
+
+def test_info_compares_stored_and_measured_fold_angles(tmp_path):
+    mesh = mixed_mesh()
+    hinge = np.zeros(mesh.n_edges, bool)
+    hinge[[3, 9]] = True  # edges (1, 4) and (4, 7) on the line x = 0.1
+    assignment = np.where(hinge, "V", FoldModel.from_mesh(mesh).edges_assignment)
+
+    def run(frames, name):
+        model = FoldModel.from_mesh(mesh, assignment, np.where(hinge, 0.4, 0.0), frames=frames)
+        save_fold(model, tmp_path / name)
+        assert main(["info", str(tmp_path / name), "--report", str(tmp_path / "r.json"), "-q"]) == 0
+        return json.loads((tmp_path / "r.json").read_text())
+
+    good = run([FoldFrame(folded_coords(mesh, a), np.where(hinge, a, 0.0)) for a in (0.2, 0.4)], "good.fold")
+    assert good["frames_max_fold_angle_mismatch_deg"] < 1e-12 and good["frames_creases_bent_wrong_way"] == 0
+    # coordinates folded to 0.2 rad while the frame claims 0.4 rad
+    off = run([FoldFrame(folded_coords(mesh, 0.2), np.where(hinge, 0.4, 0.0))], "off.fold")
+    assert off["frames_max_fold_angle_mismatch_deg"] == pytest.approx(np.degrees(0.2), abs=1e-9)
+    # the valley crease bent as a mountain in a frame whose own angles are unknown
+    wrong = run([FoldFrame(folded_coords(mesh, -0.3), np.where(hinge, np.nan, 0.0))], "wrong.fold")
+    assert wrong["frames_creases_bent_wrong_way"] == 2

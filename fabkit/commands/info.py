@@ -12,9 +12,12 @@ defect 2*pi - sum of corner angles over interior vertices (max and mean of its a
 radians; 0 for a developable panel), face planarity (max distance of a face's vertices to its
 best-fit plane / mean edge length of the face), the face/vertex tags present, and for FOLD files
 the frames, edge assignments and the file's unit. FOLD files are measured in their key frame
-(the crease pattern) unless --frame picks a fold state; with fold states, info also gives the largest relative edge-length change
-against the key frame over all states (0 for an isometric fold), their largest face planarity, and
-the largest fold angle of the last state measured from its coordinates. Units inside are metres.
+(the crease pattern) unless --frame picks a fold state. With fold states, info also gives the
+largest relative edge-length change against the key frame over all states (0 for an isometric
+fold), their largest face planarity, how
+far the fold angles stored for M/V creases are from the angles measured from the coordinates, how
+many creases bend against their M/V assignment, and the largest fold angle of the last state.
+Units inside are metres.
 
 Exit codes: 0 ok; 2 bad file (one line naming the file and the problem; --report not written).
 
@@ -112,23 +115,38 @@ def summarize(path: str, frame: int | None = None) -> dict:
     return report
 
 
+#: a crease bent the wrong way by less than this (radians) counts as flat, not as a contradiction
+SIGN_NOISE_RAD = 1e-6
+
+
 def _frame_measures(model, key) -> dict:
     """Over all fold states: the largest edge-length change against the key frame (a fold state of
-    sheet metal should be an isometry), the largest face planarity, and the last state's largest
-    fold angle measured from its coordinates (degrees, valley +)."""
+    sheet metal should be an isometry), the largest face planarity, how far the fold angles stored
+    for M/V creases are from the angles measured from the coordinates (degrees), how many M/V creases
+    bend against their assignment, and the last state's largest measured fold angle (degrees, valley +)."""
     import numpy as np
 
     from fabkit import measures
 
     L0 = key.edge_lengths
-    strain, planarity = 0.0, 0.0
+    to_mesh = model.mesh_edge_index  # model edge -> mesh edge
+    crease = np.isin(model.edges_assignment, ["M", "V"])
+    strain, planarity, mismatch, wrong_way = 0.0, 0.0, 0.0, 0
     for i in range(model.n_frames):
         m = model.frame_mesh(i)
         strain = max(strain, float(np.max(np.abs(m.edge_lengths / L0 - 1.0))) if len(L0) else 0.0)
         planarity = max(planarity, float(measures.face_planarity(m).max()))
+        measured = measures.dihedral_angles(m)[to_mesh]
+        stored = model.frame_fold_angle(i)
+        known = crease & np.isfinite(stored)
+        if np.any(known):
+            mismatch = max(mismatch, float(np.degrees(np.max(np.abs(measured[known] - stored[known])))))
+        wrong_way += int(np.sum(((model.edges_assignment == "V") & (measured < -SIGN_NOISE_RAD))
+                                | ((model.edges_assignment == "M") & (measured > SIGN_NOISE_RAD))))
     d = np.degrees(measures.dihedral_angles(model.frame_mesh(-1)))
     k = int(np.argmax(np.abs(d))) if len(d) else 0
     return {"frames_max_edge_strain": strain, "frames_max_planarity": planarity,
+            "frames_max_fold_angle_mismatch_deg": mismatch, "frames_creases_bent_wrong_way": wrong_way,
             "last_frame_max_fold_deg": float(d[k]) if len(d) else 0.0}
 
 
@@ -154,6 +172,9 @@ def _lines(r: dict) -> list[str]:
             out.append(f"  fold states: max edge-length change {r['frames_max_edge_strain']:.3g} (relative), "
                        f"max planarity {r['frames_max_planarity']:.3g}, "
                        f"last state's largest fold {r['last_frame_max_fold_deg']:.4g} deg")
+            out.append(f"  M/V creases: stored vs measured fold angle differ by up to "
+                       f"{r['frames_max_fold_angle_mismatch_deg']:.3g} deg; "
+                       f"{r['frames_creases_bent_wrong_way']} crease-frame(s) bent against their assignment")
         out.extend(f"  note: {n}" for n in r["notes"])
     out.extend(f"  warning: {w}" for w in r["warnings"])
     return out
