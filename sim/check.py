@@ -77,7 +77,9 @@ class CheckSettings:
 @dataclass(frozen=True)
 class Problem:
     """One problem: first `waypoint` (index), `kind` (one of KINDS), human `detail`; `last_waypoint`
-    of the run, `subject` (joint, geom pair or factor), `value` the worst value (SI units)."""
+    of the run, `subject` (joint, geom pair or factor), `value` the worst value (SI units);
+    `config` the index of the first offending configuration in the checked `Dense` sequence (not
+    in JSON; it may lie inside the move to `waypoint`)."""
 
     waypoint: int
     kind: str
@@ -86,6 +88,7 @@ class Problem:
     subject: str = ""
     value: float | None = None
     pair: tuple[str, str] | None = None
+    config: int | None = field(default=None, compare=False)
 
     def to_json(self) -> dict:
         out = {"waypoint": int(self.waypoint), "kind": self.kind, "detail": self.detail,
@@ -388,7 +391,8 @@ def _limit_events(model, dense: Dense) -> list:
     for r, c in zip(rows, cols):
         q = float(dense.q[r, c])
         events.append((int(dense.waypoint[r]), "joint_limit", JOINT_NAMES[c], abs(q),
-                       f"{JOINT_NAMES[c]} at {q * _DEG:.1f}° outside [{lo[c] * _DEG:.0f}°, {hi[c] * _DEG:.0f}°]"))
+                       f"{JOINT_NAMES[c]} at {q * _DEG:.1f}° outside [{lo[c] * _DEG:.0f}°, {hi[c] * _DEG:.0f}°]",
+                       None, int(r)))
     return events
 
 
@@ -403,7 +407,7 @@ def _singular_events(model, dense: Dense, settings: CheckSettings) -> list:
             text = (f"{name} singularity: {unit} = {v * 1e3:.1f} mm < {eps * 1e3:.0f} mm" if name == "shoulder"
                     else f"{name} singularity: {unit} = {v:.3f} < {eps:.3f} "
                          f"(q{5 if name == 'wrist' else 3} = {dense.q[r, 4 if name == 'wrist' else 2] * _DEG:.1f}°)")
-            events.append((int(dense.waypoint[r]), "singular", name, v, text))
+            events.append((int(dense.waypoint[r]), "singular", name, v, text, None, int(r)))
     return events
 
 
@@ -429,7 +433,7 @@ def _speed_events(model, cell, dense: Dense) -> list:
                     f"(a configuration flip; limit {limit[c] * _DEG:.0f}°/s, move planned at v = {v:.3g})")
         else:
             text = f"{JOINT_NAMES[c]} at {s * _DEG:.0f}°/s > {limit[c] * _DEG:.0f}°/s limit (move planned at v = {v:.3g})"
-        events.append((int(dense.waypoint[r + 1]), "speed", JOINT_NAMES[c], s / limit[c], text))
+        events.append((int(dense.waypoint[r + 1]), "speed", JOINT_NAMES[c], s / limit[c], text, None, int(r + 1)))
     return events
 
 
@@ -485,10 +489,10 @@ def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None):
             label = f"{pair[0]} × {pair[1]}"
             if dist < 0:
                 events.append((int(dense.waypoint[j]), "collision", label, dist,
-                               f"{label}, {-dist * 1e3:.1f} mm deep", pair))
+                               f"{label}, {-dist * 1e3:.1f} mm deep", pair, j))
             else:
                 events.append((int(dense.waypoint[j]), "clearance", label, dist,
-                               f"{label} at {dist * 1e3:.1f} mm (clearance {clearance * 1e3:.0f} mm)", pair))
+                               f"{label} at {dist * 1e3:.1f} mm (clearance {clearance * 1e3:.0f} mm)", pair, j))
     return events, (None if not math.isfinite(min_d) else min_d), min_pair, names
 
 
@@ -504,13 +508,14 @@ def _worse(kind: str, new: float, old: float) -> bool:
 def _merge(events: list) -> list[Problem]:
     """One problem per run of the same (kind, subject) over consecutive waypoints, worst value kept.
 
-    An event is (waypoint, kind, subject, value, detail[, pair]).
+    An event is (waypoint, kind, subject, value, detail[, pair[, configuration index]]).
     """
     runs: dict = {}
     done = []
-    for ev in sorted(events, key=lambda e: (e[1], e[2], e[0])):
+    for ev in sorted(events, key=lambda e: (e[1], e[2], e[0], -1 if len(e) < 7 or e[6] is None else e[6])):
         wp, kind, subject, value, detail = ev[:5]
         pair = ev[5] if len(ev) > 5 else None
+        config = ev[6] if len(ev) > 6 else None
         run = runs.get((kind, subject))
         if run is not None and wp <= run["last"] + 1:
             run["last"] = max(run["last"], wp)
@@ -520,7 +525,7 @@ def _merge(events: list) -> list[Problem]:
         if run is not None:
             done.append(run)
         runs[(kind, subject)] = {"first": wp, "last": wp, "kind": kind, "subject": subject, "value": value,
-                                 "detail": detail, "pair": pair}
+                                 "detail": detail, "pair": pair, "config": config}
     done.extend(runs.values())
     problems = []
     for r in done:
@@ -528,7 +533,7 @@ def _merge(events: list) -> list[Problem]:
         if r["last"] > r["first"]:
             detail += f" (waypoints {r['first']}–{r['last']})"
         problems.append(Problem(waypoint=r["first"], kind=r["kind"], detail=detail, last_waypoint=r["last"],
-                                subject=r["subject"], value=r["value"], pair=r["pair"]))
+                                subject=r["subject"], value=r["value"], pair=r["pair"], config=r["config"]))
     problems = _fold_clearance_into_collisions(problems)
     problems.sort(key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject))
     return problems
@@ -586,13 +591,17 @@ def check_program(prog: Program, cell, panel: PanelModel | None = None,
     notes = []
     if panel is None:
         notes.append("no panel geometry: the robot was checked against the cell's obstacles only")
-    elif panel.fit_residual is not None and panel.fit_residual.size:
+    if prog.r is not None and len(prog.r) and float(np.max(prog.r)) > 0:
+        notes.append(f"blends are not modelled: the checked path takes the corners exactly, a blended "
+                     f"path cuts them by up to r = {float(np.max(prog.r)) * 1e3:.1f} mm")
+    if panel is not None and panel.fit_residual is not None and panel.fit_residual.size:
         notes.append(f"panel faces follow their fold states rigidly to {panel.fit_residual.max() * 1e3:.3f} mm")
     report = CheckReport(
         toolpath_sha256=prog.sha256, ok=not problems, problems=problems, min_clearance_m=min_d,
         cycle_time_s=cycle_time(prog, prog.dwell), waypoints=len(prog), configs_checked=len(dense.q),
         min_clearance_pair=min_pair, clearance_limit_m=float(cell.limits.clearance),
-        clearance_window_m=float(names.margins["environment_m"]), panel_window_m=float(names.margins.get("panel_m", 0.0)), cell=cell.name, robot=model.name,
+        clearance_window_m=float(names.margins["environment_m"]),
+        panel_window_m=float(names.margins.get("panel_m", 0.0)), cell=cell.name, robot=model.name,
         panel_faces=0 if panel is None else len(panel.pieces), notes=tuple(notes))
     return report, dense
 

@@ -187,18 +187,22 @@ def _render(args, path: Path, size, cell, panel, prog, dense, report) -> dict:
         if not 0 <= k < len(prog):
             raise InputError(f"waypoint {k} is outside 0..{len(prog) - 1}", source="--waypoint")
         hits = np.flatnonzero(dense.at_waypoint & (dense.waypoint == k))
-        if len(hits) == 0:
-            raise InputError(f"waypoint {k} has no joint solution to draw", source="--waypoint")
-        j = int(hits[0])
+        j = int(hits[0]) if len(hits) else None
         for p in report.problems:
-            if p.waypoint == k and p.pair:
-                highlight = p.pair
+            if p.waypoint == k:
+                if p.pair:
+                    highlight = p.pair
+                if args.waypoint is None and p.config is not None:
+                    j = int(p.config)  # the first offending configuration, which may lie inside the move
                 break
+        if j is None:
+            raise InputError(f"waypoint {k} has no joint solution to draw", source="--waypoint")
         frame = next(iter(render_frames(m, cell, dense.q[j:j + 1], panel=panel, states=dense.state[j:j + 1],
                                         width=w, height=h, highlight=highlight)))
         write_png(path, frame)
-        say(args, f"rendered waypoint {k} to {path}")
-        return {"path": str(path), "waypoint": k, "highlight": list(highlight)}
+        where = "" if dense.at_waypoint[j] else " (where the problem starts, on the move to it)"
+        say(args, f"rendered waypoint {k}{where} to {path}")
+        return {"path": str(path), "waypoint": k, "config": j, "highlight": list(highlight)}
     if not 2 <= args.frames <= 10000:
         raise InputError(f"must be in 2..10000, got {args.frames}", source="--frames")
     idx, speedup = movie_indices(dense.dt, max_frames=args.frames)
