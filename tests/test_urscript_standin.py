@@ -22,7 +22,6 @@ from robot.urscript import PROGRESS_REGISTER, write_urscript
 from sim.ursim.urscript import parse_program
 
 CELL = Path(__file__).resolve().parent.parent / "cells" / "ur5e_bench.toml"
-HOST = external_host() or "127.0.0.181"
 TOOL_BIT = 1 << 16  # the stand-in's digital_out word: tool outputs from bit 16
 
 
@@ -49,9 +48,9 @@ def test_program_runs_on_the_stand_in(program, tmp_path):
         pytest.skip("runs a fold program only on the loopback stand-in")
     tp, text = program
     cell = load_cell(CELL)
-    standin = StandIn(HOST, "--cell", str(CELL), log=tmp_path / "ursim.log")  # starts at the cell's home
+    standin = StandIn("--cell", str(CELL), log=tmp_path / "ursim.log")  # a free loopback address; cell home
     try:
-        with socket.create_connection((HOST, 30002), timeout=5.0) as s:
+        with socket.create_connection((standin.host, 30002), timeout=5.0) as s:
             s.sendall(text.encode("ascii"))
         seen_grip, progress, deadline = False, [], time.monotonic() + 90.0
         while time.monotonic() < deadline:
