@@ -1,4 +1,4 @@
-"""Acceptance: refolded reflect and trifold panels are executable in both shipped cells.
+"""Acceptance: refolded reflect (one and two creases) and trifold panels are executable in both cells.
 
 The panels go through the real pipeline (generate -> relax (trifold) -> unfold -> refold); every
 waypoint's joint solution reproduces its pose by FK to 1e-9, no joint moves more than 5 deg between
@@ -12,10 +12,8 @@ import numpy as np
 import pytest
 
 from fabkit.cli import main as fabkit_main
-from fabkit.fold import FoldFrame, FoldModel
 from fabkit.frames import middle_row_frames
-from fabkit.io import load_obj
-from fabkit.io.fold import load_fold, save_fold
+from fabkit.io.fold import load_fold
 from robot import kinematics as K
 from robot.cell import load_cell, pose_to_matrix
 from robot.motion import blend_overlaps
@@ -24,37 +22,28 @@ from robot.toolpath import check_toolpath_kinematics, plan_panel
 CELLS = Path(__file__).resolve().parent.parent / "cells"
 
 
-def _fold_model(seq) -> FoldModel:
-    """A FoldModel of a refold FoldSequence (triangles with the polygon map, one frame per state)."""
-    frames = [FoldFrame(seq.positions[s], seq.angles[s]) for s in range(seq.n_states)]
-    return FoldModel(vertices_coords=seq.flat_vertices, faces_vertices=seq.tris, edges_vertices=seq.edges,
-                     edges_assignment=seq.edges_assignment, edges_fold_angle=np.zeros(len(seq.edges)),
-                     faces_data=seq.face_data, frames=frames)
-
-
-@pytest.fixture(scope="module", params=["reflect", "trifold"])
+@pytest.fixture(scope="module", params=["reflect", "reflect2", "trifold"])
 def refolded(request, tmp_path_factory):
-    from fabkit.refold import refold
-
-    d = tmp_path_factory.mktemp(request.param)
+    """generate -> relax (trifold) -> unfold -> refold through the fabkit commands; the FOLD file."""
+    name = request.param
+    d = tmp_path_factory.mktemp(name)
     src = d / "panel.obj"
-    assert fabkit_main(["generate", request.param, "-o", str(src), "-q"]) == 0
-    if request.param == "trifold":  # the generated trifold is not developable until relaxed
+    extra = ["--creases", "2"] if name == "reflect2" else []
+    assert fabkit_main(["generate", name.rstrip("2"), "-o", str(src), "-q", *extra]) == 0
+    if name == "trifold":  # the generated trifold is not developable until relaxed
         relaxed = d / "relaxed.obj"
         assert fabkit_main(["relax", str(src), "-o", str(relaxed), "-q"]) == 0
         src = relaxed
     flat = d / "flat.obj"
     assert fabkit_main(["unfold", str(src), "-o", str(flat), "-q"]) == 0
-    seq = refold(load_obj(flat), load_obj(src), frames=20)
-    assert seq.converged.all()
-    path = d / "seq.fold"
-    save_fold(_fold_model(seq), path)  # through the file, as `fabkit toolpath` reads it
-    return request.param, load_fold(path)
+    seq = d / "seq.fold"
+    assert fabkit_main(["refold", str(flat), str(src), "-o", str(seq), "-q"]) == 0
+    return name, seq, load_fold(seq)
 
 
 @pytest.mark.parametrize("cell_file", ["ur5e_bench.toml", "ur10e_fold_table.toml"])
 def test_refolded_panel_is_executable(refolded, cell_file):
-    name, model = refolded
+    name, seq, model = refolded
     cell = load_cell(CELLS / cell_file)
     frames = middle_row_frames(model)
     res = plan_panel(cell, frames, source={"file": f"{name}.fold"})
@@ -84,3 +73,15 @@ def test_refolded_panel_is_executable(refolded, cell_file):
     world = np.array([cell.robot.base_pose @ pose_to_matrix(p) for p in tp.poses])
     table = next(o for o in cell.obstacles if o.name in ("bench", "fold_table"))
     assert world[:, 2, 3].min() > table.pose[2, 3] + table.size[2] + 0.1
+
+
+def test_toolpath_command_on_the_refold_file(refolded, tmp_path, capsys):
+    name, seq, _ = refolded
+    out, script = tmp_path / "path.json", tmp_path / "fold.script"
+    rc = fabkit_main(["toolpath", str(seq), "--cell", str(CELLS / "ur10e_fold_table.toml"), "-o", str(out),
+                      "--script", str(script), "-q"])
+    assert rc == 0, capsys.readouterr().err
+    from robot.toolpath import Toolpath
+
+    tp = Toolpath.load(out)
+    assert tp.source["file"] == "seq.fold" and tp.sha256 in script.read_text()
