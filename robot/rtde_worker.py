@@ -19,7 +19,7 @@ from typing import Any, Callable
 
 #: RTDE variables the monitor receives (a small set at 125 Hz, reference ur-rtde.md §9.1).
 MONITOR_VARIABLES = ["timestamp", "actual_q", "actual_TCP_pose", "runtime_state", "robot_mode", "safety_mode",
-                     "safety_status_bits"]
+                     "safety_status_bits", "actual_digital_output_bits"]
 
 
 class WorkerError(Exception):
@@ -35,7 +35,7 @@ class _Channels:
 
     def __init__(self, host: str):
         self.host = host
-        self.dash = self.recv = self.ctrl = None
+        self.dash = self.recv = self.ctrl = self.io = None
 
     def connect_dashboard(self) -> str:
         import dashboard_client
@@ -67,9 +67,22 @@ class _Channels:
         return {"timestamp": r.getTimestamp(), "q": list(r.getActualQ()), "tcp_pose": list(r.getActualTCPPose()),
                 "runtime_state": r.getRuntimeState(), "robot_mode": r.getRobotMode(),
                 "safety_mode": r.getSafetyMode(), "safety_status_bits": r.getSafetyStatusBits(),
+                "digital_out": int(r.getActualDigitalOutputBits()),
                 # the async status word (output_int_register_2) from the control interface's own stream;
                 # the receive interface only exposes registers 12-19
                 "progress_word": int(self.ctrl.getAsyncOperationProgressEx().value()) if self.ctrl else 0}
+
+    def connect_io(self) -> bool:
+        import rtde_io
+
+        self.io = rtde_io.RTDEIOInterface(self.host)
+        return True
+
+    def set_output(self, kind: str, number: int, value: bool) -> bool:
+        """A digital output: kind "tool" (tool connector) or "standard" (control box)."""
+        if kind == "tool":
+            return bool(self.io.setToolDigitalOut(int(number), bool(value)))
+        return bool(self.io.setStandardDigitalOut(int(number), bool(value)))
 
     def set_tcp(self, pose) -> bool:
         return bool(self.ctrl.setTcp(list(pose)))
@@ -105,10 +118,10 @@ class _Channels:
         return True
 
     def disconnect(self) -> bool:
-        for obj in (self.ctrl, self.recv, self.dash):
+        for obj in (self.ctrl, self.io, self.recv, self.dash):
             if obj is not None:
                 obj.disconnect()
-        self.ctrl = self.recv = self.dash = None
+        self.ctrl = self.io = self.recv = self.dash = None
         return True
 
 

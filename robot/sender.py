@@ -353,6 +353,47 @@ class Sender:
         self.last_completed = len(self.wps) - 1
         self._on_progress(self.last_completed, st)
 
+    # ---- gripper --------------------------------------------------------------------------------
+    def _grip(self) -> dict | None:
+        g = self.tp.extra.get("grip") if isinstance(getattr(self.tp, "extra", None), dict) else None
+        return g if isinstance(g, dict) and "output" in g else None
+
+    def gripper_state_at(self, k: int) -> bool:
+        """Whether the gripper is closed while moving toward waypoint k (grip ... release)."""
+        on = False
+        for w in self.wps[:k]:
+            if w["op"] == "grip":
+                on = True
+            elif w["op"] == "release":
+                on = False
+        return on
+
+    def set_gripper(self, on: bool, dwell: float = 0.0) -> None:
+        g = self._grip()
+        if g is None:
+            return
+        kind, n = str(g.get("kind", "tool")), int(g["output"])
+        if not self.call("set_output", kind, n, on):
+            raise _Fault(f"the controller refused to set the {kind} digital output {n}")
+        bit = 1 << (n + (16 if kind == "tool" else 0))
+        t_end = time.monotonic() + 2.0
+        while bool(self.poll()["digital_out"] & bit) != on:  # confirmed by the receive stream
+            if time.monotonic() > t_end:
+                raise _Fault(f"the {kind} digital output {n} did not switch {'on' if on else 'off'}")
+            time.sleep(self.s.poll_s)
+        self.event(step="gripper", on=on, output=n, kind=kind)
+        if dwell > 0:
+            t_end = time.monotonic() + dwell
+            while time.monotonic() < t_end:  # keep watching the link while dwelling
+                self.poll()
+                time.sleep(min(self.s.poll_s, max(0.0, t_end - time.monotonic())))
+
+    def after_waypoint(self, k: int) -> None:
+        g = self._grip()
+        op = self.wps[k]["op"]
+        if g is not None and op in ("grip", "release"):
+            self.set_gripper(op == "grip", float(g.get(f"{op}_dwell_s", 0.5)))
+
     def check_resume(self) -> None:
         k = self.s.resume_from
         if k == 0:
@@ -391,11 +432,21 @@ class Sender:
             self.call("connect_receive", s.monitor_hz, timeout=s.connect_timeout_s)
             self.call("connect_control", s.rt_priority, timeout=s.connect_timeout_s)
             self.call("set_tcp", list(self.tp.tcp))
+            if self._grip() is not None:
+                self.call("connect_io", timeout=s.connect_timeout_s)
+                self.set_gripper(self.gripper_state_at(s.resume_from))
             self.check_resume()
-            start = s.resume_from
+            # chunks end at grip/release waypoints (the arm stops there, the gripper switches)
+            switch = [k for k, w in enumerate(self.wps) if w["op"] in ("grip", "release")]
+            start, first = s.resume_from, True
             while True:
                 stop = min(start + max(2, s.chunk), n)
+                if first and start in switch:
+                    stop = start + 1  # resuming at a grip/release waypoint: go there, switch, go on
+                stop = min([stop] + [k + 1 for k in switch if start < k < stop])
                 self.send_chunk(start, stop, result)
+                self.after_waypoint(stop - 1)
+                first = False
                 if stop == n:
                     break
                 start = stop - 1

@@ -112,8 +112,9 @@ class StandIn:
 
 
 def demo_toolpath(n_fold: int = 56, r_max: float = 0.01):
-    """A toolpath in the ur5e_bench cell: home (movej), approach (movej), a blended movel curve of
-    `n_fold` waypoints over the fixture, retract (movel), home (movej)."""
+    """A toolpath in the test bench cell: home (movej), approach (movej), a blended movel curve of
+    `n_fold` waypoints over the fixture from grip to release (tool output 0 closes the gripper),
+    retract (movel), home (movej)."""
     from robot import kinematics as K
     from robot.cell import load_cell, matrix_to_pose, pose_to_matrix
     from robot.motion import blend_radii
@@ -140,14 +141,14 @@ def demo_toolpath(n_fold: int = 56, r_max: float = 0.01):
         T[:3, :3] = T[:3, :3] @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
         poses.append(matrix_to_pose(T))
         moves.append("movel")
-        ops.append("fold")
+        ops.append("grip" if i == 0 else "release" if i == n_fold - 1 else "fold")
     retract = poses[-1] + np.array([0, 0, 0.05, 0, 0, 0])
     poses += [retract, p_home]
     moves += ["movel", "movej"]
     ops += ["retract", "home"]
     P = np.array(poses)
     stops = np.array([m == "movej" for m in moves])
-    stops[1] = stops[1 + n_fold] = True
+    stops[1] = stops[2] = stops[1 + n_fold] = True
     r = blend_radii(P[:, :3], stops, r_max)
     q_prev, wps = home, []
     for i, (p, mv) in enumerate(zip(P, moves)):
@@ -158,8 +159,9 @@ def demo_toolpath(n_fold: int = 56, r_max: float = 0.01):
         wps.append({"pose": [float(x) for x in p], "q": [float(x) for x in q], "move": mv,
                     "v": 0.4 if lin else 1.5, "a": 2.0 if lin else 3.0, "r": float(r[i]), "state": 0,
                     "op": ops[i]})
+    grip = {"output": 0, "kind": "tool", "grip_dwell_s": 0.2, "release_dwell_s": 0.2}
     return Toolpath(robot=model.name, cell=cell.name, tcp=tuple(matrix_to_pose(tcp)), source={"test": "demo"},
-                    waypoints=tuple(wps))
+                    waypoints=tuple(wps), extra={"grip": grip})
 
 
 def check_report(tp) -> dict:

@@ -56,17 +56,21 @@ def test_send_runs_the_demo_toolpath_to_completion(standin, host, job, tmp_path,
     assert r.returncode == 0, r.stderr
     assert f"sent {len(tp)} of {len(tp)} waypoints" in r.stdout
     rep = json.loads(report.read_text())
-    assert rep["ok"] and rep["last_completed"] == len(tp) - 1 and rep["chunks_sent"] == 2
+    # chunks end at grip (waypoint 2) and release (57): 0-2, 2-52, 52-57, 57-59
+    assert rep["ok"] and rep["last_completed"] == len(tp) - 1 and rep["chunks_sent"] == 4
     assert rep["final_error_m"] < 1e-6 and rep["final_error_rad"] < 1e-6
     assert rep["quantisation_m"] < 1e-6 and rep["quantisation_rad"] < 1e-5
     events = [json.loads(line) for line in log.read_text().splitlines()]
     calls = [e["call"] for e in events if "call" in e]
     assert calls[:4] == ["connect_dashboard", "dashboard", "dashboard", "dashboard"]
-    assert calls.count("move_path") == 2 and "state" in calls and "set_tcp" in calls
+    assert calls.count("move_path") == 4 and "state" in calls and "set_tcp" in calls
+    grips = [e["on"] for e in events if e.get("step") == "gripper"]
+    assert grips == [False, True, False]  # released at the start, closed at grip, opened at release
     if standin is not None:
         state = standin.state()
         assert np.abs(np.array(state["q"]) - tp.waypoints[-1]["q"]).max() < 1e-9
         assert state["tcp_offset"] == pytest.approx(list(tp.tcp), abs=1e-12)
+        assert not state["digital_out"] & (1 << 16)  # tool output 0 off again
 
 
 @needs_standin
@@ -102,6 +106,7 @@ def test_protective_stop_mid_path_then_resume(standin, host, job, tmp_path, caps
     last = int(m.group(1))
     assert 17 <= last <= 20 and int(m.group(2)) == last + 1
     assert json.loads(report.read_text())["last_completed"] == last
+    assert standin.state()["digital_out"] & (1 << 16)  # stopped while gripping: the gripper stays closed
     q_stop = np.array(standin.state()["q"])
     time.sleep(0.2)
     assert np.array_equal(np.array(standin.state()["q"]), q_stop)  # the arm stays stopped
@@ -110,6 +115,7 @@ def test_protective_stop_mid_path_then_resume(standin, host, job, tmp_path, caps
     assert r.returncode == 0, r.stderr
     assert f"sent {len(tp) - last - 1} of {len(tp)} waypoints" in r.stdout
     assert np.abs(np.array(standin.state()["q"]) - tp.waypoints[-1]["q"]).max() < 1e-9
+    assert not standin.state()["digital_out"] & (1 << 16)
 
 
 @needs_standin

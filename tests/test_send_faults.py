@@ -103,7 +103,7 @@ def test_emergency_stop_is_refused_by_preflight(standin, job, capsys):
     assert rc == 1 and "Robotmode: POWER_OFF" in err and "--power-on" in err
     rc, out, err, dt = send(capsys, str(path), "--check", str(check), "--host", standin.host, "--power-on", "--chunk", "30")
     assert rc == 0, err
-    assert "(3 path chunk(s))" in out  # waypoints 0-29, 29-58, 58-59
+    assert "(4 path chunk(s))" in out  # waypoints 0-2 (grip), 2-31, 31-57 (release), 57-59
 
 
 def test_worker_is_killed_when_it_hangs():
