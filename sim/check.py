@@ -318,6 +318,7 @@ def interpolate_program(model, prog: Program, settings: CheckSettings = CheckSet
         interior[i] = q[:-1]
         diff = np.abs(q[-1] - prog.q[i + 1])
         if float(diff.max()) > settings.end_tol_rad:
+            arrived[i] = False  # the jump onto the stored joints is this problem, not a speed one
             j = int(np.argmax(diff))
             events.append((int(i) + 1, "unreachable", "arrival", float(diff.max()),
                            f"the linear move from waypoint {i} arrives with other joints than stored "

@@ -244,3 +244,21 @@ def test_check_toolpath_entry_point_takes_a_toolpath(ur5e, tmp_path):
     assert report.ok and report.toolpath_sha256 == tp.sha256 == Toolpath.from_json(tp.to_json()).sha256
     tp.save(tmp_path / "p.json")
     assert check_toolpath(tmp_path / "p.json", ur5e).toolpath_sha256 == tp.sha256
+
+
+def test_linear_move_arriving_on_another_branch_is_unreachable_not_a_speed_problem(ur5e):
+    m, tcp = ur5e.model, ur5e.tool.tcp
+    prog = sweep_program(ur5e, 2, height=0.12)
+    q0 = prog.q[0]
+    P1 = prog.poses[0].copy()
+    P1[:3, 3] += [0.02, 0.0, 0.0]
+    S = kin.ik(m, P1, tcp)
+    other = [q for q in S if (kin.branch_signs(m, q) != kin.branch_signs(m, q0)).any()]
+    q1 = kin.unwrap_near(other[0], q0, m)
+    bad = Program(poses=np.stack([prog.poses[0], P1]), q=np.vstack([q0, q1]), moves=("movej", "movel"),
+                  v=np.array([1.0, 0.1]), a=np.array([1.0, 1.0]), states=np.zeros(2), tcp=tcp)
+    report, _ = check_program(bad, ur5e)
+    arrival = [p for p in report.problems if p.subject == "arrival"]
+    assert len(arrival) == 1 and arrival[0].kind == "unreachable" and arrival[0].waypoint == 1
+    assert kin.branch_label(m, q1) in arrival[0].detail
+    assert not [p for p in report.problems if p.kind == "speed"]
