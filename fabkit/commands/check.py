@@ -4,7 +4,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from fabkit.commands._common import add_common, say, write_json, write_report
+from fabkit.commands._common import add_common, progress, say, write_json, write_report
 from fabkit.errors import InputError
 
 HELP = """Check every waypoint of a toolpath and the motion between them in a MuJoCo model of the cell.
@@ -207,6 +207,12 @@ def _render(args, path: Path, size, cell, panel, prog, dense, report) -> dict:
         raise InputError(f"must be in 2..10000, got {args.frames}", source="--frames")
     idx, speedup = movie_indices(dense.dt, max_frames=args.frames)
     frames = render_frames(m, cell, dense.q[idx], panel=panel, states=dense.state[idx], width=w, height=h)
-    n = write_mp4(path, frames)
+    with progress(args, "rendering", total=len(idx)) as advance:
+        def counted():
+            for frame in frames:
+                yield frame
+                advance()
+
+        n = write_mp4(path, counted())
     say(args, f"rendered {n} frames to {path} ({speedup:.1f}x real time)")
     return {"path": str(path), "frames": n, "speedup": speedup}
