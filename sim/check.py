@@ -20,13 +20,15 @@ Motion model (how a UR controller executes the program): `movel` runs the TCP on
 between the two poses with the orientation slerped, the joints following by inverse kinematics
 continuously from where the arm is; `movej` interpolates joints linearly with the leading joint at
 `v` rad/s. Joint speeds are joint change over time at the cruise speed `v` (the fastest part of a
-trapezoidal profile; a rotation-only linear step reads `v` as rad/s). Blends (`r`) are not
-modelled: the check follows the corners exactly, which is where a blend departs from by at most `r`.
+trapezoidal profile; a linear move whose rotation dominates reads `v` as rad/s, as
+`robot.motion` times it). Blends (`r`) are not modelled: the check follows the corners exactly,
+which a blended path cuts by at most `r` (the report notes it).
 
 Problems found at interpolated configurations belong to the move's target waypoint (the move
 instruction that causes them); problems at a waypoint's own configuration belong to it. Runs of the
 same problem (same kind and same joint/pair/factor) over consecutive waypoints are reported once,
-with the first and last waypoint and the worst value.
+with the first and last waypoint and the worst value; a pair that breaks the clearance and then
+collides is reported once, as the collision.
 """
 from __future__ import annotations
 
@@ -35,7 +37,7 @@ from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 from robot import kinematics as kin
 from sim.arm import JOINT_NAMES, part_name

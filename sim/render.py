@@ -12,7 +12,6 @@ import ctypes.util
 import math
 import os
 import sys
-from pathlib import Path
 
 import numpy as np
 

@@ -7,14 +7,13 @@ import sys
 import tomllib
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from fabkit.cli import main as fabkit_main
 from fabkit.frames import middle_row_frames
 from fabkit.io.fold import save_fold
 from fold_fixtures import folded_grid_model
-from robot.cell import load_cell, matrix_to_pose, pose_to_matrix
+from robot.cell import load_cell, pose_to_matrix
 from robot.toolpath import Toolpath, plan_panel
 
 ROOT = Path(__file__).resolve().parent.parent
