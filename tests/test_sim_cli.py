@@ -236,3 +236,21 @@ def test_render_png_of_a_waypoint_and_mp4_of_the_program(gl, planned, tmp_path):
     finally:
         reader.close()
     assert 2 <= n <= 8
+
+
+def test_view_without_a_display_is_refused_before_checking(planned, tmp_path, capsys, monkeypatch):
+    d, out = planned
+    monkeypatch.delenv("DISPLAY", raising=False)
+    rc, cap = _check([out["ur5e"][2], "--cell", CELL_FILES["ur5e"], "-o", tmp_path / "c.json", "--view"], capsys)
+    assert rc == 2 and "--view" in cap.err and not (tmp_path / "c.json").exists()
+
+
+def test_checking_in_another_cell_is_noted(planned, tmp_path, capsys):
+    d, out = planned
+    text = CELL_FILES["ur5e"].read_text().replace('name = "ur5e_bench"', 'name = "ur5e_bench_copy"')
+    assert "ur5e_bench_copy" in text
+    (tmp_path / "copy.toml").write_text(text)
+    rc, cap = _check([out["ur5e"][2], "--cell", tmp_path / "copy.toml", "-o", tmp_path / "c.json",
+                      "--fold", d / "grid.fold"], capsys)
+    js = json.loads((tmp_path / "c.json").read_text())
+    assert rc == 0 and any("planned for cell 'ur5e_bench'" in n for n in js["notes"])

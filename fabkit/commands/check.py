@@ -69,6 +69,8 @@ def run(args) -> int:
         if select_gl_backend() is None:
             raise InputError("no offscreen OpenGL backend (install libegl1 libegl-mesa0 libgl1-mesa-dri, or "
                              "libosmesa6; or set MUJOCO_GL=egl before anything imports mujoco)", source="--render")
+    if args.view and not os.environ.get("DISPLAY"):
+        raise InputError("no display for the viewer (DISPLAY is not set)", source="--view")
     if args.thickness is not None and not 0 < args.thickness < 0.05:
         raise InputError(f"must be in (0, 0.05) m, got {args.thickness}", source="--thickness")
     out = Path(args.output)
@@ -96,6 +98,11 @@ def run(args) -> int:
     t0 = time.perf_counter()
     report, dense = check_program(prog, cell, panel, CheckSettings())
     elapsed = time.perf_counter() - t0
+    if tp.cell != cell.name:
+        import dataclasses
+
+        report = dataclasses.replace(report, notes=report.notes + (
+            f"the toolpath was planned for cell {tp.cell!r} and checked in {cell.name!r}",))
     write_json(out, report.to_json())
 
     if not args.quiet:
@@ -111,8 +118,6 @@ def run(args) -> int:
                         "min_clearance_m": report.min_clearance_m, "cycle_time_s": report.cycle_time_s,
                         "toolpath_sha256": report.toolpath_sha256, "render": rendered})
     if args.view:
-        if not os.environ.get("DISPLAY"):
-            raise InputError("no display for the viewer (DISPLAY is not set)", source="--view")
         from sim.model import build_cell_model
         from sim.render import view
 
