@@ -127,9 +127,9 @@ def refine_isometric(mesh: PolyMesh, uv0: np.ndarray, pairs: np.ndarray, rest: n
     """Minimise the spring energy from `uv0`; returns `(uv, info)` with iterations/converged/message.
 
     `weights`: energy weight per spring (default 1). When `uv0` already meets every rest length to
-    `EXACT_RTOL` (exactly developable input laid out
-    exactly) the solver is not started: that is the minimum. `norm` > 2 continues from the
-    least-squares minimum with `refine_pnorm`.
+    `EXACT_RTOL` with no flip guard active (exactly developable input laid out exactly) the solver
+    is not started: that is the minimum. `norm` > 2 continues from the least-squares minimum with
+    `refine_pnorm`.
     """
     n = len(uv0)
     tris, area = corner_triangles(mesh)
@@ -139,7 +139,7 @@ def refine_isometric(mesh: PolyMesh, uv0: np.ndarray, pairs: np.ndarray, rest: n
     start_max = float(np.max(np.abs(problem.spring_residuals(uv0))))
     if not np.all(np.isfinite(r0)):
         raise FloatingPointError("the starting layout has non-finite spring lengths")
-    if np.max(np.abs(r0)) <= EXACT_RTOL:  # springs exact and no guard active
+    if start_max <= EXACT_RTOL and not np.any(r0[len(pairs):]):  # springs exact, no guard active
         return uv0, {"iterations": 0, "converged": True, "message": "layout already exact (no refinement needed)",
                      "initial_max_relative_deviation": start_max}
     uv, info = gauss_newton(problem.residuals, problem.jacobian, uv0, problem.free,
@@ -154,7 +154,8 @@ def refine_isometric(mesh: PolyMesh, uv0: np.ndarray, pairs: np.ndarray, rest: n
 
 def refine_pnorm(problem: SpringProblem, uv0: np.ndarray, p: float, *, max_iterations: int = 100,
                  tol: float = 1e-10) -> tuple[np.ndarray, dict]:
-    """Minimise f = sum |r_s|^p (p > 2) from `uv0` by generalised Gauss-Newton.
+    """Minimise f = sum |r_s|^p (p > 2) over the problem's (weighted) residuals from `uv0` by
+    generalised Gauss-Newton.
 
     Gradient Jᵀ(p |r|^(p-1) sign r); Hessian model Jᵀ diag(p (p-1) |r|^(p-2)) J, with |r| floored at
     1e-3 of its RMS so springs that are already exact keep some stiffness; one SuperLU solve per
