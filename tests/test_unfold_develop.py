@@ -183,6 +183,14 @@ def test_bad_meshes_are_refused():
         develop(two)
     with pytest.raises(InputError, match="unknown method"):
         develop(a, "magic")
+    V2 = np.array(a.vertices)
+    V2[4] = V2[3]
+    with pytest.raises(MeshError, match="zero length"):
+        develop(PolyMesh(V2, a.faces_list(), validate=False))
+    sliver = PolyMesh(np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [1, 1, 0]], float), [[0, 1, 3], [1, 2, 3], [0, 2, 1]],
+                      validate=False)
+    with pytest.raises(MeshError, match="face 2 has zero area"):
+        develop(sliver)
 
 
 def test_flip_and_overlap_detectors():

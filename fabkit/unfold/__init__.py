@@ -67,10 +67,16 @@ def reference_lengths(mesh: PolyMesh, target_lengths=None) -> tuple[np.ndarray, 
 def _check_panel(mesh: PolyMesh) -> None:
     if not mesh.boundary_loops:
         raise MeshError("the mesh is closed (no boundary); a closed surface cannot be unfolded without cuts")
+    if not np.all(np.isfinite(mesh.vertices[mesh.topology.used_vertex_mask])):
+        raise MeshError("the mesh has non-finite vertex coordinates")
     small = mesh.edge_lengths <= 1e-12 * max(mesh.size, 1e-300)
     if np.any(small):
         e = int(np.flatnonzero(small)[0])
         raise MeshError(f"edge {e} {tuple(int(v) for v in mesh.edges[e])} has zero length")
+    flat = mesh.face_areas <= 1e-12 * mesh.size ** 2
+    if np.any(flat):
+        f = int(np.flatnonzero(flat)[0])
+        raise MeshError(f"face {f} has zero area (vertices {mesh.face(f).tolist()})")
 
 
 def _isometric(mesh: PolyMesh, pairs, rest, seed_face, max_iterations, norm):
