@@ -268,3 +268,28 @@ def test_relaxed_panel_from_the_relax_stage_unfolds_nearly_exactly():
     # tags survive relaxation, so the creases still come from the strips
     a = crease_assignment(result.mesh)
     assert a.source.startswith("face_data") and len(a.edges_with("V")) == 12
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+
+@settings(max_examples=15, deadline=None, derandomize=True)
+@given(nu=st.integers(3, 9), nv=st.integers(2, 7), fold=st.floats(-2.8, 2.8), jitter=st.floats(0.0, 0.3),
+       seed=st.integers(0, 10_000))
+def test_any_folded_jittered_grid_unfolds_exactly(nu, nv, fold, jitter, seed):
+    """Planar jittered grids folded rigidly along a grid line and moved anywhere: always exact."""
+    rng = np.random.default_rng(seed)
+    mesh, uv = folded_grid(fold, nu=max(nu, 3), nv=nv)
+    # jitter the flat coordinates inside their cells (keeps quads convex), then fold again rigidly
+    du, dv = 0.1, 0.08
+    flat = uv + rng.uniform(-jitter / 2, jitter / 2, size=uv.shape) * [du, dv]
+    u0 = (max(nu, 3) // 2) * du
+    flat[np.abs(uv[:, 0] - u0) < 1e-12, 0] = u0  # crease vertices stay on the fold line
+    V = np.column_stack([flat, np.zeros(len(flat))])
+    right = flat[:, 0] > u0 + 1e-12
+    x = flat[right, 0] - u0
+    V[right, 0] = u0 + x * np.cos(fold)
+    V[right, 2] = x * np.sin(fold)
+    folded = PolyMesh(rigid_motion(V, seed), mesh.faces_list())
+    dev = develop(folded)
+    assert_exact(dev, flat, tol=1e-12)
