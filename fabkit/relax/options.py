@@ -169,6 +169,8 @@ def fixed_mask_from(mesh: PolyMesh, fixed: Sequence[int] | np.ndarray | None) ->
     if fixed is None:
         return mask
     arr = np.asarray(fixed)
+    if arr.size == 0:
+        return mask
     if arr.dtype == bool:
         if arr.shape != (n,):
             raise ValueError(f"fixed mask has shape {arr.shape}, expected ({n},)")

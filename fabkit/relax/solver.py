@@ -51,10 +51,7 @@ class Relaxer:
         self.mesh = mesh
         self.options = options
         try:
-            fixed_mask = fixed_mask_from(mesh, list(options.fixed) + ([] if fixed is None else
-                                                                    list(np.flatnonzero(fixed)) if
-                                                                    np.asarray(fixed).dtype == bool else
-                                                                    list(np.asarray(fixed).ravel())))
+            fixed_mask = fixed_mask_from(mesh, options.fixed) | fixed_mask_from(mesh, fixed)
         except ValueError as exc:
             raise InputError(str(exc), source=source) from None
         self.fixed_mask = fixed_mask
