@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-UR_PORTS = (30004, 29999, 30001, 30002, 30003)
+UR_PORTS = (30004, 29999, 30001, 30002, 30003, 30020)  # + the stand-in's fault-injection admin port
 
 
 def free_loopback_address(first: int = 2, last: int = 250) -> str:

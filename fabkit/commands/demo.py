@@ -138,11 +138,19 @@ def _describe(stage: Stage) -> None:
                          f"cycle {_fmt(_first(r, 'cycle_time_s', default='?'))} s")
         stage.tolerance = "step <= 5 deg"
     elif stage.name == "check":
+        clearance = _first(r, "min_clearance_m")
+        if clearance is None:  # nothing came within the checker's clearance window
+            clearance_text = f"> {_fmt(_first(r, 'clearance_window_m', default='?'))} m"
+        else:
+            clearance_text = f"{_fmt(clearance)} m"
         stage.measure = (f"{_first(r, 'problems', default='?')} problems in {_first(r, 'configs_checked', default='?')} "
-                         f"configurations, min clearance {_fmt(_first(r, 'min_clearance_m', default='?'))} m")
+                         f"configurations, min clearance {clearance_text}")
         stage.tolerance = "0 problems"
     elif stage.name == "send":
-        stage.measure = f"final pose error {_fmt(_first(r, 'final_pose_error_m', 'final_error_m', default='?'))} m"
+        stage.measure = (f"{_first(r, 'last_completed', default=-1) + 1}/{_first(r, 'total', default='?')} waypoints, "
+                         f"final error {_fmt(_first(r, 'final_error_m', default='?'))} m / "
+                         f"{_fmt(_first(r, 'final_error_rad', default='?'))} rad")
+        stage.tolerance = "all waypoints, error <= 1e-4 rad"
     elif stage.name == "generate":
         stage.measure = f"{_first(r, 'vertices', 'summary.vertices', default='?')} vertices, " \
                         f"{_first(r, 'faces', 'summary.faces', default='?')} faces"
