@@ -206,7 +206,8 @@ def gl():
 
 def _run_cli(args, timeout=120):
     env = dict(os.environ)
-    env.pop("MUJOCO_GL", None) if env.get("MUJOCO_GL") == "glfw" else None
+    if env.get("MUJOCO_GL") == "glfw":  # let the command pick an offscreen backend itself
+        del env["MUJOCO_GL"]
     return subprocess.run([sys.executable, "-m", "fabkit", "check"] + [str(a) for a in args], capture_output=True,
                           text=True, timeout=timeout, cwd=ROOT, env=env)
 
