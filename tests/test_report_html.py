@@ -3,14 +3,12 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
-import subprocess
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from browser import chromium, count_colour, screenshot
 from fabkit.report.html import write_report_html
 
 
@@ -40,24 +38,10 @@ def test_report_is_self_contained(tmp_path):
     assert "<a href='path.json'>" in page
 
 
-def _chromium() -> str | None:
-    return shutil.which("chromium") or shutil.which("chromium-browser")
-
-
-@pytest.mark.skipif(_chromium() is None, reason="Debian chromium not installed (scripts/system-deps.sh installs it)")
+@pytest.mark.skipif(chromium() is None, reason="Debian chromium not installed (scripts/system-deps.sh installs it)")
 def test_report_renders_plots_in_chromium(tmp_path):
     write_report_html(tmp_path, _summary(tmp_path))
-    shot = tmp_path / "shot.png"
-    with tempfile.TemporaryDirectory() as profile:
-        subprocess.run([_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                        "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                        f"--user-data-dir={profile}", "--window-size=1200,2400", f"--screenshot={shot}",
-                        (tmp_path / "report.html").as_uri()],
-                       check=True, timeout=90, capture_output=True)
-    import matplotlib.image as mpimg
-
-    img = mpimg.imread(shot)[:, :, :3]
-    # matplotlib's first two line colours (#1f77b4 blue, #ff7f0e orange) must appear: the plots rendered
-    blue = np.all(np.abs(img - np.array([0x1f, 0x77, 0xb4]) / 255) < 0.06, axis=2).sum()
-    orange = np.all(np.abs(img - np.array([0xff, 0x7f, 0x0e]) / 255) < 0.06, axis=2).sum()
+    img = screenshot(tmp_path / "report.html", tmp_path / "shot.png", height=2400)
+    # matplotlib's first two line colours must appear: the plots rendered
+    blue, orange = count_colour(img, "#1f77b4"), count_colour(img, "#ff7f0e")
     assert blue > 200 and orange > 200, (blue, orange)
