@@ -52,7 +52,9 @@ class _Channels:
     def connect_receive(self, frequency: float) -> bool:
         import rtde_receive
 
-        self.recv = rtde_receive.RTDEReceiveInterface(self.host, frequency, MONITOR_VARIABLES)
+        # rt_priority -1: leave the scheduling alone (ur_rtde's default 0 makes the thread SCHED_FIFO
+        # on real-time kernels)
+        self.recv = rtde_receive.RTDEReceiveInterface(self.host, frequency, MONITOR_VARIABLES, False, False, -1)
         return True
 
     def connect_control(self, rt_priority: int) -> bool:

@@ -161,7 +161,13 @@ def pose_distance(a, b) -> tuple[float, float]:
 
 
 def point_segment_distance(p, a, b) -> float:
-    p, a, b = (np.asarray(x, dtype=np.float64)[:3] for x in (p, a, b))
+    """Distance (m) from position p to the segment a-b (UR poses or points; positions only)."""
+    return point_segment_distance_nd(np.asarray(p)[:3], np.asarray(a)[:3], np.asarray(b)[:3])
+
+
+def point_segment_distance_nd(p, a, b) -> float:
+    """Euclidean distance from point p to the segment a-b in any dimension."""
+    p, a, b = (np.asarray(x, dtype=np.float64) for x in (p, a, b))
     ab = b - a
     t = 0.0 if not np.any(ab) else float(np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0.0, 1.0))
     return float(np.linalg.norm(p - (a + t * ab)))
@@ -395,13 +401,22 @@ class Sender:
             self.set_gripper(op == "grip", float(g.get(f"{op}_dwell_s", 0.5)))
 
     def check_resume(self) -> None:
+        """The arm must stand on the way into waypoint `resume_from`: near the TCP line from the
+        previous waypoint for a movel, near the joint-space line for a movej."""
         k = self.s.resume_from
         if k == 0:
             return
         st = self.poll()
-        a, b = self.wps[k - 1]["pose"], self.wps[k]["pose"]
-        d = point_segment_distance(st["tcp_pose"], a, b)
-        tol = self.s.resume_tol_m + max(self.wps[k - 1]["r"], self.wps[k]["r"])
+        a, b = self.wps[k - 1], self.wps[k]
+        if b["move"] == "movej":
+            d = point_segment_distance_nd(st["q"], a["q"], b["q"])
+            tol = 0.02
+            if d > tol:
+                raise SendError(f"--resume-from {k}: the joints are {d:.3f} rad from the joint move between "
+                                f"waypoints {k - 1} and {k} (allowed {tol} rad); move the arm there first")
+            return
+        d = point_segment_distance(st["tcp_pose"], a["pose"], b["pose"])
+        tol = self.s.resume_tol_m + max(a["r"], b["r"])
         if d > tol:
             raise SendError(f"--resume-from {k}: the TCP is {d * 1e3:.1f} mm from the segment between waypoints "
                             f"{k - 1} and {k} (allowed {tol * 1e3:.1f} mm); move the arm there first")
