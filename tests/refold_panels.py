@@ -52,3 +52,30 @@ def straight_crease_pair(angle: float, nx: int = 4, ny: int = 3, size: float = 1
     x = T[right, 0]
     T[right, 0], T[right, 2] = c * x, s * x
     return flat, PolyMesh(T, faces, face_data=fd)
+
+
+def letter_fold_pair(angle: float, nx: int = 6, ny: int = 2, size: float = 1.0):
+    """A flat strip with two straight creases at x = -1/6 and 1/6 (of `size`), both valley `angle`.
+
+    Beyond about 160 deg the two flaps, folded over the middle panel from both sides, cross each
+    other: a known interpenetration.
+    """
+    xs = np.linspace(-size / 2, size / 2, nx + 1)
+    ys = np.linspace(0.0, size * ny / nx, ny + 1)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    V = np.column_stack([X.ravel(), Y.ravel(), np.zeros(X.size)])
+    faces = grid_faces(nx, ny + 1)
+    fcol = np.repeat(np.arange(nx), ny)
+    strip = np.digitize(fcol, [nx // 3, 2 * nx // 3]).astype(np.int64)
+    column = (np.arange(len(faces)) % ny).astype(np.int64)
+    middle = (column == ny // 2).astype(np.int64) * np.isin(fcol, [nx // 3 - 1, nx // 3, 2 * nx // 3 - 1,
+                                                                    2 * nx // 3]).astype(np.int64)
+    fd = {"strip": strip, "column": column, "middle": middle}
+    a, b = xs[nx // 3], xs[2 * nx // 3]
+    T = V.copy()
+    c, s = np.cos(angle), np.sin(angle)
+    left, right = T[:, 0] < a - 1e-12, T[:, 0] > b + 1e-12
+    dl, dr = a - V[left, 0], V[right, 0] - b
+    T[left, 0], T[left, 2] = a - c * dl, s * dl
+    T[right, 0], T[right, 2] = b + c * dr, s * dr
+    return PolyMesh(V, faces, face_data=fd), PolyMesh(T, faces, face_data=fd)

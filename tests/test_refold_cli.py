@@ -200,3 +200,23 @@ def test_cli_steps_from_a_json_schedule(pair_files, tmp_path):
     assert [st["step"] for st in states] == [-1, 0, 1]
     assert main(["refold", str(d / "flat.obj"), str(d / "target.obj"), "-o", str(out), "--steps", str(sched),
                  "--drive", "all", "-q"]) == 2
+
+
+def test_flaps_that_cross_are_reported_and_exit_1(tmp_path, capsys):
+    from refold_panels import DEG, letter_fold_pair
+
+    flat, target = letter_fold_pair(170 * DEG)
+    seq = refold(flat, target, frames=9)
+    assert seq.converged.all() and seq.target_distance <= 1e-9 * seq.panel_size
+    assert seq.intersections[0] == 0 and seq.intersections[-1] > 0
+    # the same panel folded to 120 deg stays clear all the way
+    assert refold(*letter_fold_pair(120 * DEG), frames=5).intersections.max() == 0
+    save_obj(flat, tmp_path / "f.obj")
+    save_obj(target, tmp_path / "t.obj")
+    out, rep = tmp_path / "s.fold", tmp_path / "r.json"
+    assert main(["refold", str(tmp_path / "f.obj"), str(tmp_path / "t.obj"), "-o", str(out), "--frames", "9",
+                 "--report", str(rep), "-q"]) == 1
+    assert "pass through each other" in capsys.readouterr().err
+    assert out.exists() and not json.loads(rep.read_text())["ok"]
+    assert main(["refold", str(tmp_path / "f.obj"), str(tmp_path / "t.obj"), "-o", str(out), "--frames", "9",
+                 "--no-intersections", "-q"]) == 0
