@@ -23,7 +23,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation, Slerp
 
 from robot import kinematics as K
@@ -327,6 +326,8 @@ def _plan_cart_run(model, tcp, q0, wps, dt):
     # exact ends for every stopping waypoint: the spline passes its knots
     stop_idx = np.searchsorted(knots, np.asarray(stops) - 1e-12)
     breaks = sorted({0, len(knots) - 1, *(int(j) for j in stop_idx if 0 < j < len(knots) - 1)})
+    from scipy.interpolate import CubicSpline  # imported here: it costs ~0.5 s at stand-in start-up
+
     q = np.empty((len(s), 6))
     for b0, b1 in zip(breaks[:-1], breaks[1:]):
         m = (s >= knots[b0]) & (s <= knots[b1])
