@@ -440,7 +440,7 @@ def _speed_events(model, cell, dense: Dense) -> list:
     return events
 
 
-def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None):
+def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None, on_progress=None):
     """MuJoCo contacts at every configuration. Returns (events, min clearance, its pair, names).
 
     `built`: a `(MjModel, CellNames)` from `build_cell_model(cell, panel)` to reuse.
@@ -465,7 +465,10 @@ def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None):
     qpos = d.qpos
     last_state = None
     kin_fn, col_fn = mujoco.mj_kinematics, mujoco.mj_collision
-    for j in range(len(dense.q)):
+    total = len(dense.q)
+    for j in range(total):
+        if on_progress is not None and j % 512 == 0:
+            on_progress(j, total)
         qpos[:] = dense.q[j]
         if panel is not None and dense.state[j] != last_state:
             last_state = dense.state[j]
@@ -496,6 +499,8 @@ def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None):
             else:
                 events.append((int(dense.waypoint[j]), "clearance", label, dist,
                                f"{label} at {dist * 1e3:.1f} mm (clearance {clearance * 1e3:.0f} mm)", pair, j))
+    if on_progress is not None:
+        on_progress(total, total)
     return events, (None if not math.isfinite(min_d) else min_d), min_pair, names
 
 
@@ -579,8 +584,11 @@ def cycle_time(prog: Program, dwell=None) -> float:
 
 
 def check_program(prog: Program, cell, panel: PanelModel | None = None,
-                  settings: CheckSettings = CheckSettings()) -> tuple[CheckReport, Dense]:
-    """Check a program (arrays) in the cell; returns the report and the configurations checked."""
+                  settings: CheckSettings = CheckSettings(), on_progress=None) -> tuple[CheckReport, Dense]:
+    """Check a program (arrays) in the cell; returns the report and the configurations checked.
+
+    `on_progress(done, total)`: called now and then while the configurations go through MuJoCo.
+    """
     model = cell.model
     dense = interpolate_program(model, prog, settings)
     events = list(dense.events)
@@ -588,7 +596,7 @@ def check_program(prog: Program, cell, panel: PanelModel | None = None,
     events += _limit_events(model, dense)
     events += _singular_events(model, dense, settings)
     events += _speed_events(model, cell, dense)
-    col, min_d, min_pair, names = _collision_events(cell, panel, dense)
+    col, min_d, min_pair, names = _collision_events(cell, panel, dense, on_progress=on_progress)
     events += col
     problems = tuple(_merge(events))
     notes = []

@@ -96,7 +96,14 @@ def run(args) -> int:
                                 None if args.fold else tp.source)
 
     t0 = time.perf_counter()
-    report, dense = check_program(prog, cell, panel, CheckSettings())
+    with progress(args, "checking") as advance:
+        seen = [0]
+
+        def on_progress(done, total):
+            advance(done - seen[0], total=total)
+            seen[0] = done
+
+        report, dense = check_program(prog, cell, panel, CheckSettings(), on_progress=on_progress)
     elapsed = time.perf_counter() - t0
     if tp.cell != cell.name:
         import dataclasses
