@@ -404,7 +404,9 @@ def nearest_index(solutions, q_ref, *, model: URModel | str | None = None, branc
     moves = np.abs(U - np.asarray(q_ref, dtype=np.float64))
     cost = np.max(moves, axis=1) + 1e-3 * np.sum(moves, axis=1)
     if branch is not None:
-        ok = np.all(branch_signs(model or "ur5e", S) == np.asarray(branch), axis=1)
+        if model is None:
+            raise ValueError("selecting by branch needs the model (the shoulder sign depends on its DH lengths)")
+        ok = np.all(branch_signs(model, S) == np.asarray(branch), axis=1)
         if not np.any(ok):
             raise LookupError(f"no IK solution on branch {branch_text(branch)}")
         cost = np.where(ok, cost, np.inf)

@@ -223,6 +223,8 @@ def test_select_nearest_by_branch(rng):
     assert tuple(K.branch_signs("ur5e", chosen)) == tuple(other)
     with pytest.raises(LookupError):
         K.select_nearest(S[:0], q)
+    with pytest.raises(ValueError, match="needs the model"):
+        K.select_nearest(S, q, branch=other)
 
 
 def test_get_model_unknown():
