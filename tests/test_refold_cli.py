@@ -39,6 +39,9 @@ def test_fold_file_reads_back_exactly(tmp_path):
         np.testing.assert_array_equal(frame.vertices_coords, seq.positions[s])
         np.testing.assert_array_equal(frame.edges_fold_angle, seq.angles[s])
     np.testing.assert_array_equal(back.faces_data["polygon"], seq.tri_face)
+    np.testing.assert_array_equal(back.edges_data["crease"], seq.edge_crease)
+    assert set(back.edges_data["crease"][seq.edge_kind == "crease"]) == {0}
+    assert set(back.edges_data["crease"][seq.edge_kind != "crease"]) == {-1}
     for tag in ("strip", "column", "middle"):
         np.testing.assert_array_equal(back.faces_data[tag], np.asarray(flat.face_data[tag])[seq.tri_face])
     # assignments: J diagonals, B outline, M/V by the target's sign on creases

@@ -224,7 +224,8 @@ class RefoldSolver:
             newton_iterations=its, converged=conv, intersections=inter,
             target_distance=self.target_distance(positions[-1]) if conv[-1] else float("nan"),
             panel_size=self.panel_size, face_data=self.triangle_face_data(),
-            polygon_edge=np.array(self.panel.edge_poly_edge), notes=tuple(notes))
+            polygon_edge=np.array(self.panel.edge_poly_edge), edge_crease=np.array(self.panel.edge_crease),
+            notes=tuple(notes))
 
     def assignment(self, angles: np.ndarray) -> np.ndarray:
         """FOLD letters: B, J for diagonals, M/V by the target's sign (F when flat, U when a hinge

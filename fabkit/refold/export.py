@@ -5,7 +5,7 @@ creases and bent rulings `M`/`V`, flat hinges `F`, outline `B`, `edges_foldAngle
 angles); every state is a child frame overriding `vertices_coords` and `edges_foldAngle`. Maps back
 to the quads: `faces_fabkit:polygon` (the quad of each triangle), `faces_fabkit:strip/column/middle`,
 `edges_fabkit:kind` (0 boundary, 1 crease, 2 ruling, 3 diagonal), `edges_fabkit:driven`,
-`edges_fabkit:polygon_edge` (-1 for diagonals). Per frame: `frame_fabkit:state`, `frame_fabkit:step`,
+`edges_fabkit:polygon_edge` (-1 for diagonals), `edges_fabkit:crease` (crease row, -1 off creases). Per frame: `frame_fabkit:state`, `frame_fabkit:step`,
 `frame_fabkit:loop_residual_rad`, `frame_fabkit:edge_length_error`, `frame_fabkit:intersections`.
 """
 from __future__ import annotations
@@ -37,7 +37,8 @@ def to_fold_model(seq: FoldSequence, *, title: str = "", file_data: dict | None 
     kind = np.array([EDGE_KINDS.index(str(k)) for k in seq.edge_kind], np.int64)
     driven = np.zeros(len(seq.edges), np.int64)
     driven[seq.driven] = 1
-    edges_data = {"kind": kind, "driven": driven, "polygon_edge": np.asarray(seq.polygon_edge, np.int64)}
+    edges_data = {"kind": kind, "driven": driven, "polygon_edge": np.asarray(seq.polygon_edge, np.int64),
+                  "crease": np.asarray(seq.edge_crease, np.int64)}
     frames = []
     for s in range(seq.n_states):
         frames.append(FoldFrame(seq.positions[s], seq.angles[s], data={

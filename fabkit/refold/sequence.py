@@ -41,7 +41,8 @@ class FoldSequence:
     `target_distance` max vertex distance [m] of the last state to the target aligned on the fixed
     face; `panel_size` [m] (bounding-box diagonal of the flat pattern). `face_data` per triangle
     (`polygon` and the quads' strip/column/middle tags); `polygon_edge` (E,) FLAT's edge id of each
-    hinge (-1 for diagonals); `notes` remarks (fallbacks, non-convergence).
+    hinge (-1 for diagonals); `edge_crease` (E,) crease row k (between strips k and k+1) of crease
+    hinges, -1 otherwise; `notes` remarks (fallbacks, non-convergence).
     """
 
     flat_vertices: np.ndarray
@@ -68,6 +69,7 @@ class FoldSequence:
     panel_size: float
     face_data: dict = field(default_factory=dict)
     polygon_edge: np.ndarray | None = None
+    edge_crease: np.ndarray | None = None
     notes: tuple = ()
 
     @property
