@@ -266,12 +266,16 @@ def build_schedule(panel: TriangulatedPanel, flat: PolyMesh, driven: np.ndarray,
                 row_frac[:, r] = F[:, d].mean(axis=1)
         strip = np.asarray(flat.face_data["strip"])
         face_strip = strip[panel.tri_face[np.maximum(panel.topology.edge_faces[:, 0], 0)]]
-        for e in free:
-            r = panel.edge_crease[e]
-            cand = [r] if r >= 0 else [face_strip[e] - 1, face_strip[e]]
-            cols = [c for c in cand if 0 <= c <= rows_max and not np.isnan(row_frac[0, c])]
-            if cols:
-                F[:, e] = row_frac[:, cols].mean(axis=1)
+        # candidate crease rows per free hinge: its own row, or the two rows bounding its strip
+        r = panel.edge_crease[free]
+        cand = np.where((r >= 0)[:, None], np.stack([r, r], axis=1),
+                        np.stack([face_strip[free] - 1, face_strip[free]], axis=1))
+        ok = (cand >= 0) & (cand <= rows_max)
+        ok[ok] &= ~np.isnan(row_frac[0, cand[ok]])
+        n_ok = ok.sum(axis=1)
+        vals = np.where(ok[None], row_frac[:, np.clip(cand, 0, rows_max)], 0.0)  # (S, free, 2)
+        has = n_ok > 0
+        F[:, free[has]] = vals[:, has].sum(axis=2) / n_ok[has]
     return F, step_of_state
 
 
