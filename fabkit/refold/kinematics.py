@@ -188,13 +188,17 @@ class MinNormSolver:
         self.method, self.tol = method, tol
         self.factorizations = 0
         self.inner_iterations = 0   # LSMR iterations
+        self._kept = None           # (C, LU) of the last direct factorisation
 
-    def solve(self, C: sp.csr_matrix, b: np.ndarray, reuse: bool = False) -> np.ndarray:
-        if C.shape[1] == 0:
-            return np.zeros(0)
-        if reuse and self.method == "direct" and getattr(self, "_kept", None) is not None:
+    def solve(self, C: sp.csr_matrix | None, b: np.ndarray, reuse: bool = False) -> np.ndarray:
+        """Minimum-norm x with C x = b; `reuse=True` (direct only) uses the last factorised C instead."""
+        if reuse:
+            if self.method != "direct" or self._kept is None:
+                raise ValueError("no kept factorisation to reuse")
             C0, lu = self._kept
             return C0.T @ lu.solve(b)
+        if C.shape[1] == 0:
+            return np.zeros(0)
         if self.method == "lsmr":
             out = spla.lsmr(C, b, atol=self.tol, btol=self.tol, maxiter=20 * max(C.shape))
             self.inner_iterations += int(out[2])
@@ -231,14 +235,15 @@ def project_to_constraints(loops: VertexLoops, rho_start: np.ndarray, rho_ref: n
     rho[free] = rho_start[free]
     f0 = solver.factorizations
 
-    def evaluate(x):
-        r, omega = loop_closure(loops, x)
+    def evaluate(x, jac):
+        r, omega = loop_closure(loops, x, jacobian=jac)
         return r, omega, (float(np.abs(r).max()) if len(r) else 0.0)
 
     def done(ok, res, its):
         return NewtonResult(rho, res, its, ok, solver.factorizations - f0)
 
-    r, omega, res = evaluate(rho)
+    chord = chord and solver.method == "direct"
+    r, omega, res = evaluate(rho, True)
     if not np.isfinite(res):
         return done(False, float("nan"), 0)
     its = 0
@@ -252,15 +257,20 @@ def project_to_constraints(loops: VertexLoops, rho_start: np.ndarray, rho_ref: n
         if its >= max_iter:
             return done(False, res, its)
         its += 1
-        C = pattern.matrix(omega)
         b = -r.ravel()
-        reuse = chord and its > 1 and not refresh
-        step = solver.solve(C, b, reuse) if d0 is None else d0 + solver.solve(C, b - C @ d0)
+        reuse = chord and its > 1 and not refresh and d0 is None
+        if reuse:  # chord step: the kept C and its factorisation, no new Jacobian needed
+            step = solver.solve(None, b, reuse=True)
+        else:
+            if omega is None:
+                _, omega = loop_closure(loops, rho)
+            C = pattern.matrix(omega)
+            step = solver.solve(C, b) if d0 is None else d0 + solver.solve(C, b - C @ d0)
         if not np.all(np.isfinite(step)):
             return done(False, float("nan"), its)
         rho[free] += step
         prev = res
-        r, omega, res = evaluate(rho)
+        r, omega, res = evaluate(rho, not chord)
         refresh = reuse and not res <= 0.3 * prev
         if not np.isfinite(res) or res > 1e3 * max(prev, tol):
             return done(False, res if np.isfinite(res) else float("nan"), its)  # diverging
