@@ -14,9 +14,15 @@ Jacobian of r (Tachi's direction-cosine rows), and away from it an O(|r|) approx
 still converges fast once close.
 
 The update is Tachi's `d_rho = -C^+ r + (I - C^+ C) d_rho0` over the free angles (the driven
-angles are set, not solved for), computed as `d_rho0 + argmin |x| s.t. C x = -r - C d_rho0` with
-scipy's LSMR (minimum-norm least squares) or a sparse factorisation of `C C^T` (same solution,
-faster on large panels), or a dense pseudo-inverse (the baseline).
+angles are set, not solved for), computed as `d_rho0 + argmin |x| s.t. C x = -r - C d_rho0`. The
+refold driver applies it in two halves: `d_rho0` moves every angle onto the reference path (the
+driven angles exactly, the free ones to the same fraction of their targets) and the Newton
+corrections `-C^+ r` (d_rho0 = 0) bring the state back onto the constraint manifold with the least
+change. Keeping `d_rho0 = rho_ref - rho` in every step (`pull_steps`) gives the nearest point of the
+manifold instead, but converges only linearly and stalled on two-crease panels.
+
+Minimum-norm solves: a sparse factorisation of `C C^T` (default), scipy's LSMR, or a dense
+pseudo-inverse (the baseline); see `MinNormSolver`.
 """
 from __future__ import annotations
 
