@@ -20,7 +20,7 @@ driven angles exactly, the free ones to the same fraction of their targets) and 
 corrections `-C^+ r` (d_rho0 = 0) bring the state back onto the constraint manifold with the least
 change. Keeping `d_rho0 = rho_ref - rho` in every step (`pull_steps`) gives the nearest point of the
 manifold instead, but converges only linearly (30+ steps where the Newton corrections take 3-4 on a
-two-crease panel, for a state that differs by ~1e-5 rad).
+two-crease panel).
 
 Minimum-norm solves: a sparse factorisation of `C C^T` (default), scipy's LSMR, or a dense
 pseudo-inverse (the baseline); see `MinNormSolver`.
