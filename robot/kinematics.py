@@ -429,6 +429,22 @@ def select_nearest(solutions, q_ref, *, model: URModel | str | None = None, bran
 # ---- singularities -----------------------------------------------------------------------------
 
 @dataclass(frozen=True)
+class SingularityLimits:
+    """How close to a singularity a configuration may come: the one source for planner and checker.
+
+    elbow: |sin q3| (0.05 ~ 2.9 deg from stretched/folded); wrist: |sin q5|; shoulder_m: the
+    shoulder factor of det J (wrist centre to the base axis) in metres.
+    """
+
+    elbow: float = 0.05
+    wrist: float = 0.05
+    shoulder_m: float = 0.03
+
+
+SINGULARITY_LIMITS = SingularityLimits()
+
+
+@dataclass(frozen=True)
 class SingularityFactors:
     """Factors of det J = a2 a3 * elbow * wrist * shoulder (reference §3.4).
 

@@ -224,9 +224,9 @@ class PlanOptions:
     max_joint_step: float = math.radians(5.0)
     check_substeps: int = 4
     max_subdivisions: int = 256
-    singular_elbow: float = 0.02
-    singular_wrist: float = 0.02
-    singular_shoulder: float = 0.02
+    singular_elbow: float = K.SINGULARITY_LIMITS.elbow  # the checker's limits: planned paths pass the check
+    singular_wrist: float = K.SINGULARITY_LIMITS.wrist
+    singular_shoulder: float = K.SINGULARITY_LIMITS.shoulder_m
     params: MotionParams = MotionParams()
 
 

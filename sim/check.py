@@ -68,9 +68,9 @@ class CheckSettings:
     step_rot_rad: float = math.radians(1.0)
     max_steps_per_move: int = 2000
     max_refine: int = 16
-    wrist: float = 0.05
-    elbow: float = 0.05
-    shoulder_m: float = 0.03
+    wrist: float = kin.SINGULARITY_LIMITS.wrist  # one source with the planner (robot.kinematics)
+    elbow: float = kin.SINGULARITY_LIMITS.elbow
+    shoulder_m: float = kin.SINGULARITY_LIMITS.shoulder_m
     pose_tol_m: float = 1e-6
     pose_tol_rad: float = 1e-6
     end_tol_rad: float = 1e-4
