@@ -76,6 +76,23 @@ def test_fifty_waypoint_blended_path(clients):
     assert np.abs(_q(recv) - target).max() < 1e-4
 
 
+def test_joint_path_and_mixed_move_path(clients):
+    import rtde_control
+
+    ctrl, recv = clients
+    q0 = _q(recv)
+    qs = [q0 + np.array([0.1, -0.05, 0.05, 0.0, 0.05, 0.1]) * k for k in (1, 2, 3)]
+    assert ctrl.moveJ([list(q) + [1.0, 1.4, 0.01 if k < 2 else 0.0] for k, q in enumerate(qs)])
+    assert np.abs(_q(recv) - qs[-1]).max() < 1e-4  # 6 printed digits: ~1e-6 rad
+    p = np.array(recv.getActualTCPPose())
+    path = rtde_control.Path()
+    E = rtde_control.PathEntry
+    path.addEntry(E(E.MoveL, E.PositionTcpPose, list(p + [0.03, 0, 0, 0, 0, 0]) + [0.25, 1.2, 0.0]))
+    path.addEntry(E(E.MoveJ, E.PositionJoints, list(q0) + [1.0, 1.4, 0.0]))
+    assert ctrl.movePath(path, False)
+    assert np.abs(_q(recv) - q0).max() < 1e-4
+
+
 def test_async_path_reports_progress(clients):
     ctrl, recv = clients
     p0 = np.array(recv.getActualTCPPose())
