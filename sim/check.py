@@ -120,6 +120,7 @@ class CheckReport:
     robot: str = ""
     panel_faces: int = 0
     notes: tuple[str, ...] = ()
+    along_path: dict = field(default_factory=dict)  # per-waypoint clearance and joint-speed ratio
 
     def to_json(self) -> dict:
         return {
@@ -139,6 +140,7 @@ class CheckReport:
             "robot": self.robot,
             "panel_faces": self.panel_faces,
             "notes": list(self.notes),
+            "along_path": self.along_path,
         }
 
 
@@ -414,18 +416,23 @@ def _singular_events(model, dense: Dense, settings: CheckSettings) -> list:
     return events
 
 
-def _speed_events(model, cell, dense: Dense) -> list:
-    """Joint speeds between consecutive configurations against min(cell, robot) joint speed limits."""
+def _joint_speeds(model, cell, dense: Dense):
+    """`(speed (M-1, 6) rad/s, limit (6,), dq, dt)` between consecutive configurations at cruise speed."""
     limit = np.minimum(np.array(cell.limits.joint_speed), np.array(model.joint_speed_max))
-    M = len(dense.q)
-    if M < 2:
-        return []
     dq = np.abs(np.diff(dense.q, axis=0))
     dt = dense.dt[1:]
     moving = np.isfinite(dt)
     with np.errstate(divide="ignore", invalid="ignore"):
         speed = np.where(moving[:, None], dq / np.where(dt > 0, dt, np.nan)[:, None], 0.0)
     speed = np.where(np.isnan(speed) & (dq > 0), np.inf, np.nan_to_num(speed))
+    return speed, limit, dq, dt
+
+
+def _speed_events(model, cell, dense: Dense) -> list:
+    """Joint speeds between consecutive configurations against min(cell, robot) joint speed limits."""
+    if len(dense.q) < 2:
+        return []
+    speed, limit, dq, dt = _joint_speeds(model, cell, dense)
     events = []
     rows, cols = np.nonzero(speed > limit)
     for r, c in zip(rows, cols):
@@ -462,6 +469,7 @@ def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None, 
     part = [part_name(n) for n in names.geom]
     events = []
     min_d, min_pair = math.inf, None
+    nearest = np.full(len(dense.q), np.inf)  # per configuration: closest obstacle/panel within the window
     qpos = d.qpos
     last_state = None
     kin_fn, col_fn = mujoco.mj_kinematics, mujoco.mj_collision
@@ -487,6 +495,8 @@ def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None, 
                 if dist >= 0:
                     continue
             elif environment[g2]:
+                if dist < nearest[j]:
+                    nearest[j] = dist
                 if dist < min_d:
                     min_d, min_pair = dist, (part[g1], part[g2])
                 if dist >= clearance:
@@ -501,7 +511,23 @@ def _collision_events(cell, panel: PanelModel | None, dense: Dense, built=None, 
                                f"{label} at {dist * 1e3:.1f} mm (clearance {clearance * 1e3:.0f} mm)", pair, j))
     if on_progress is not None:
         on_progress(total, total)
-    return events, (None if not math.isfinite(min_d) else min_d), min_pair, names
+    return events, (None if not math.isfinite(min_d) else min_d), min_pair, names, nearest
+
+
+def along_path(model, cell, dense: Dense, nearest: np.ndarray, n_waypoints: int) -> dict:
+    """Per waypoint: closest obstacle/panel distance within the measuring window [m] (None: nothing
+    that close) and the fastest joint as a fraction of its speed limit, over the configurations of
+    the move into it — the series the report plots."""
+    wp = np.asarray(dense.waypoint, dtype=np.int64)
+    clearance = np.full(n_waypoints, np.inf)
+    np.minimum.at(clearance, wp, nearest)
+    ratio = np.zeros(n_waypoints)
+    if len(dense.q) >= 2:
+        speed, limit, _, _ = _joint_speeds(model, cell, dense)
+        np.maximum.at(ratio, wp[1:], (speed / limit).max(axis=1))
+    return {"waypoint": list(range(n_waypoints)),
+            "clearance_m": [None if not math.isfinite(c) else float(c) for c in clearance],
+            "joint_speed_ratio": [None if not math.isfinite(r) else float(r) for r in ratio]}
 
 
 def _worse(kind: str, new: float, old: float) -> bool:
@@ -596,7 +622,7 @@ def check_program(prog: Program, cell, panel: PanelModel | None = None,
     events += _limit_events(model, dense)
     events += _singular_events(model, dense, settings)
     events += _speed_events(model, cell, dense)
-    col, min_d, min_pair, names = _collision_events(cell, panel, dense, on_progress=on_progress)
+    col, min_d, min_pair, names, nearest = _collision_events(cell, panel, dense, on_progress=on_progress)
     events += col
     problems = tuple(_merge(events))
     notes = []
@@ -613,7 +639,8 @@ def check_program(prog: Program, cell, panel: PanelModel | None = None,
         min_clearance_pair=min_pair, clearance_limit_m=float(cell.limits.clearance),
         clearance_window_m=float(names.margins["environment_m"]),
         panel_window_m=float(names.margins.get("panel_m", 0.0)), cell=cell.name, robot=model.name,
-        panel_faces=0 if panel is None else len(panel.pieces), notes=tuple(notes))
+        panel_faces=0 if panel is None else len(panel.pieces), notes=tuple(notes),
+        along_path=along_path(model, cell, dense, nearest, len(prog)))
     return report, dense
 
 

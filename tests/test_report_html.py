@@ -18,8 +18,10 @@ def _summary(out: Path) -> dict:
                for i in it]
     q = np.linspace([0, -1.6, 1.6, -1.6, -1.6, 0], [0.4, -1.2, 1.4, -1.8, -1.5, 0.3], 25)
     (out / "path.json").write_text(json.dumps({"waypoints": [{"q": list(r)} for r in q]}))
-    (out / "check.json").write_text(json.dumps({"ok": True, "clearance": list(np.linspace(0.05, 0.02, 25)),
-                                                "clearance_limit_m": 0.01}))
+    (out / "check.json").write_text(json.dumps({
+        "ok": True, "clearance_limit_m": 0.01, "clearance_window_m": 0.03,
+        "along_path": {"waypoint": list(range(25)), "clearance_m": [None] * 5 + list(np.linspace(0.029, 0.012, 20)),
+                       "joint_speed_ratio": list(np.linspace(0.1, 0.6, 25))}}))
     return {"total_seconds": 1.5, "stages": [
         {"name": "relax", "status": "pass", "seconds": 0.4, "measure": "max|defect| 1e-12", "tolerance": "1e-8",
          "message": "", "report": {"history": history, "converged": True}},

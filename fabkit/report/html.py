@@ -84,8 +84,8 @@ def plot_relax_history(report: dict) -> bytes | None:
     return _figure_png(fig)
 
 
-def plot_joints(path_json: dict, limits_deg_s: list[float] | None = None) -> bytes | None:
-    """Joint angles per waypoint and the estimated joint speeds against the limits."""
+def plot_joints(path_json: dict, check: dict | None = None) -> bytes | None:
+    """Joint angles per waypoint and, from the check, the fastest joint against its speed limit."""
     wps = path_json.get("waypoints") or []
     if not wps:
         return None
@@ -98,46 +98,48 @@ def plot_joints(path_json: dict, limits_deg_s: list[float] | None = None) -> byt
     a1.legend(ncol=6, fontsize=7)
     a1.grid(alpha=.3)
     a1.set_title("joint trajectory")
-    speeds = [w.get("joint_speed") for w in wps]
-    if all(isinstance(s, list) for s in speeds):
-        s = np.degrees(np.abs(np.array(speeds, dtype=float)))
-        for j in range(s.shape[1]):
-            a2.plot(s[:, j], label=f"|q̇{j + 1}|")
-        if limits_deg_s:
-            a2.axhline(min(limits_deg_s), color="r", ls="--", label="limit")
-        a2.set_ylabel("joint speed [deg/s]")
-        a2.legend(ncol=4, fontsize=7)
+    ratio = ((check or {}).get("along_path") or {}).get("joint_speed_ratio")
+    if isinstance(ratio, list) and ratio:
+        r = np.array([np.nan if v is None else float(v) for v in ratio])
+        a2.plot(np.arange(len(r)), 100 * r, label="fastest joint / its limit")
+        a2.axhline(100, color="r", ls="--", label="limit")
+        a2.set_ylabel("joint speed [% of limit]")
+        a2.set_ylim(0, max(110, float(np.nanmax(100 * r)) * 1.1 if np.isfinite(r).any() else 110))
     else:
         dq = np.degrees(np.abs(np.diff(q, axis=0))).max(axis=1)
         a2.plot(range(1, len(q)), dq, label="max |Δq| per segment")
         a2.set_ylabel("max joint change [deg]")
-        a2.legend(fontsize=7)
+    a2.legend(fontsize=7)
     a2.set_xlabel("waypoint")
     a2.grid(alpha=.3)
     return _figure_png(fig)
 
 
 def plot_clearance(check: dict) -> bytes | None:
-    """Clearance along the path, when the check report carries it per waypoint."""
-    series = check.get("clearance") or check.get("clearance_along_path")
+    """Closest obstacle/panel distance per waypoint; points beyond the measuring window are omitted."""
+    along = check.get("along_path") or {}
+    series = along.get("clearance_m")
     if not isinstance(series, list) or not series:
         return None
-    if isinstance(series[0], dict):
-        x = [s.get("waypoint", i) for i, s in enumerate(series)]
-        y = [s.get("distance_m", s.get("clearance_m")) for s in series]
-    else:
-        x, y = list(range(len(series))), series
-    y = [np.nan if v is None else 1000 * float(v) for v in y]
+    x = np.asarray(along.get("waypoint", range(len(series))))
+    y = np.array([np.nan if v is None else 1000 * float(v) for v in series])
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5.5, 3))
-    ax.plot(x, y)
+    ax.plot(x, y, "o-", ms=3, label="closest obstacle or panel face")
     lim = check.get("clearance_limit_m")
     if lim is not None:
-        ax.axhline(1000 * float(lim), color="r", ls="--", label="limit")
-        ax.legend()
+        ax.axhline(1000 * float(lim), color="r", ls="--", label="clearance limit")
+    window = check.get("clearance_window_m")
+    if window:
+        ax.axhline(1000 * float(window), color="grey", ls=":", label="measuring window (none closer: no point)")
+    if not np.isfinite(y).any() and window:
+        ax.text(0.5, 0.5, f"nothing came within {1000 * float(window):.0f} mm of the robot\nat any waypoint",
+                ha="center", va="center", transform=ax.transAxes)
+        ax.set_ylim(0, 1200 * float(window))
     ax.set_xlabel("waypoint")
     ax.set_ylabel("clearance [mm]")
     ax.grid(alpha=.3)
+    ax.legend(fontsize=7)
     ax.set_title("clearance along the path")
     return _figure_png(fig)
 
@@ -204,7 +206,7 @@ def write_report_html(out: Path, summary: dict) -> Path:
             figures.append(_img(f.read_bytes(), caption))
     path_json = _read_json(out / "path.json")
     check_json = _read_json(out / "check.json")
-    figures.append(_img(plot_joints(path_json), "joint angles and speeds along the toolpath"))
+    figures.append(_img(plot_joints(path_json, check_json), "joint angles and speeds along the toolpath"))
     figures.append(_img(plot_clearance(check_json), "clearance along the path"))
     figures = [f for f in figures if f]
     parts.append("<h2>Plots and renders</h2>")
