@@ -289,6 +289,11 @@ class Sender:
             op, running, progress = self._op(word)
             if word != base and op >= 1:
                 started = True
+            elif started and op == 0:
+                # a fresh script's "no operation" word in the middle of our move: ur_rtde lost the
+                # link, reconnected and re-uploaded its script (which stops the program's motion)
+                raise _Fault("the control script restarted mid-move: the RTDE connection dropped and "
+                             "ur_rtde reconnected")
             if started and running:
                 on_running(progress, st)
             if not running and (started or time.monotonic() - t_call > 1.0):

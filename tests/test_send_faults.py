@@ -47,7 +47,7 @@ def send(capsys, *args):
 
 
 @pytest.mark.parametrize("fault, reason", [
-    ("drop_rtde", r"(controller link lost|stalled|stopped)"),
+    ("drop_rtde", r"(controller link lost|RTDE stream stalled|control script restarted mid-move)"),
     ("stall 30", r"RTDE stream stalled"),
     ("program_stop", r"the control script stopped \(program stopped on the controller\)"),
 ])
