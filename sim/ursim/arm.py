@@ -33,6 +33,7 @@ class Arm:
         self._speed_target = np.zeros(6)
         self._speed_acc = 1.0
         self._speed_deadline: float | None = None
+        self._after_speed_stop: Callable[[bool], None] | None = None
 
     # ---- commands (hold the controller lock when calling) --------------------------------------
     def run(self, traj: Trajectory, on_marker=None, on_done=None) -> None:
@@ -113,7 +114,7 @@ class Arm:
             self.target_q = self.q.copy()
             if not np.any(self._speed_target) and not np.any(np.abs(self.qd) > 1e-12):
                 self.mode = "idle"
-                cb, self._after_speed_stop = getattr(self, "_after_speed_stop", None), None
+                cb, self._after_speed_stop = self._after_speed_stop, None
                 if cb:
                     cb(True)
         if self.mode != "speed":

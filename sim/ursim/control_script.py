@@ -327,7 +327,12 @@ class ControlScript:
             self._out_i(1, int(not ctrl.arm.moving))
         elif cmd in (25, 63, 64, 54):
             self._out_i(1, 0)  # no tool contact / freedrive in the stand-in
-        elif cmd in (6, 7, 8, 18, 19, 20, 21, 52, 53, 56, 57, 59, 62, 66, 67, 68, 69, 70, 71):
+        elif cmd in (67, 68, 69, 70, 71):
+            # dynamics getters (mass matrix, Jacobians ...): the stand-in's arm is kinematic, so the
+            # result registers say "no value" (NaN) instead of carrying stale numbers
+            for k in list(range(0, 24)) + list(range(36, 48)):
+                ctrl.out_double[k] = float("nan")
+        elif cmd in (6, 7, 8, 18, 19, 20, 21, 52, 53, 56, 57, 59, 62, 66):
             pass  # force/teach/freedrive/gravity settings: accepted, no effect on the kinematic arm
         elif cmd == 255:
             ctrl.log("textmsg: Received stop script!")
