@@ -308,10 +308,19 @@ def test_cb3_version_streams_at_125_hz(standin_cb3):
     steps = np.diff(stamps)
     assert np.allclose(steps / 0.008, np.round(steps / 0.008), atol=1e-6) and np.all(steps > 0)
     c.close()
+    import rtde_control
+
     r = rtde_receive.RTDEReceiveInterface(standin_cb3.host)  # frequency -1 -> 125 Hz for CB3
+    ctrl = rtde_control.RTDEControlInterface(standin_cb3.host, -1.0,
+                                             rtde_control.RTDEControlInterface.FLAG_UPLOAD_SCRIPT, 50002, -1)
     try:
         assert r.getRobotMode() == 7
+        target = np.array(r.getActualQ()) + 0.05
+        assert ctrl.moveJ(target.tolist())  # the CB3 control script (3.x recipes) at 125 Hz
+        assert np.abs(np.array(r.getActualQ()) - target).max() < 1e-4
     finally:
+        ctrl.stopScript()
+        ctrl.disconnect()
         r.disconnect()
 
 
