@@ -25,7 +25,7 @@ from fabkit.relax.energy import Evaluation, colored_fd_gradient
 
 SIZES = {"~600": (24, 12), "~2,500": (48, 25), "~10,000": (96, 50)}
 NOISE = 0.01
-CAP_S = float(os.environ.get("BENCH_RELAX_CAP_S", "120"))
+CAP_S = float(os.environ.get("BENCH_RELAX_CAP_S", "60"))
 
 
 def _panel(columns: int, rows: int):

@@ -53,7 +53,7 @@ class RelaxOptions:
     plane_method: str = "cross"
     damping: float = 0.0
     finish: bool = True
-    finish_below: float = 1e-3
+    finish_below: float = 1e-2
     max_seconds: float | None = None
     fallback: bool = True
 
