@@ -63,6 +63,28 @@ def test_movej_movel_end_on_target(clients):
     assert ctrl.isSteady()
 
 
+def test_movej_ik_movel_fk_and_stops(clients):
+    ctrl, recv = clients
+    q0 = _q(recv)
+    p0 = np.array(recv.getActualTCPPose())
+    goal = p0 + np.array([-0.03, 0.04, 0.02, 0, 0, 0])
+    assert ctrl.moveJ_IK(goal.tolist(), 1.0, 1.4)  # joint move to the IK solution nearest q0
+    assert np.abs(np.array(recv.getActualTCPPose()) - goal).max() < 1e-9
+    assert ctrl.moveL_FK(q0.tolist(), 0.25, 1.2)  # straight TCP line to FK(q0)
+    assert np.abs(_q(recv) - q0).max() < 1e-6
+    # an asynchronous move stopped with stopJ / stopL decelerates and stays put
+    for stop in (lambda: ctrl.stopJ(2.0, False), lambda: ctrl.stopL(5.0, False)):
+        assert ctrl.moveJ((q0 + 0.6).tolist(), 0.5, 1.0, True)
+        time.sleep(0.4)
+        stop()  # returns None in the Python binding; blocks until the arm has stopped
+        assert ctrl.getAsyncOperationProgress() < 0 and ctrl.isSteady()
+        q_stop = _q(recv)
+        assert 0.01 < np.abs(q_stop - q0).max() < 0.5
+        time.sleep(0.1)
+        assert np.abs(_q(recv) - q_stop).max() < 1e-12
+        assert ctrl.moveJ(q0.tolist())
+
+
 def test_fifty_waypoint_blended_path(clients):
     ctrl, recv = clients
     p0 = np.array(recv.getActualTCPPose())
