@@ -192,3 +192,24 @@ def test_overlapping_blends_are_refused_before_sending(job, tmp_path, capsys):
     wps[3]["v"] = 3.5
     with pytest.raises(SendError, match=r"waypoint 3: speed 3.5 m/s outside \(0, 3.0\]"):
         validate_waypoints(wps)
+
+
+def test_chunk_entries_keep_rounded_blends_apart():
+    """Blends at exactly half the segment would overlap once ur_rtde rounds the positions; the
+    sender shrinks them to just under half of the rounded segments, and ends every chunk at rest."""
+    from robot.sender import chunk_entries, printed
+
+    base = np.array([-0.4123456789, 0.1111111111, 0.3333333333, 2.2, 2.2, 0.0])
+    wps = []
+    for k in range(6):
+        p = base + np.array([0.0123456789 * k, 0.0, 0.0, 0, 0, 0])
+        wps.append({"pose": list(p), "q": [0.0] * 6, "move": "movel", "v": 0.25, "a": 1.2,
+                    "r": 0.5 * 0.0123456789 if 0 < k < 5 else 0.0, "op": "fold", "state": 0})
+    entries, qm, qr, red = chunk_entries(wps, 0, 6)
+    assert [e[0] for e in entries] == ["movel"] * 6
+    assert entries[0][2][8] == 0.0 and entries[-1][2][8] == 0.0
+    pos = np.array([[printed(x) for x in e[2][:3]] for e in entries])
+    seg = np.linalg.norm(np.diff(pos, axis=0), axis=1)
+    r = np.array([e[2][8] for e in entries])
+    assert np.all(r[:-1] + r[1:] < seg)  # no overlap after rounding
+    assert 0 < red < 1e-4 and qm <= 5e-7 and qr <= 5e-6

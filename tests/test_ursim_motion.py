@@ -143,3 +143,16 @@ def test_injected_path_as_ur_rtde_prints_it():
     assert wps[0].pose == (0.123457, -0.5, 0.3, 3.14159, 0.01, 1e-7)  # 6 significant digits
     assert (wps[0].v, wps[0].a, wps[0].r, wps[0].progress) == (0.25, 1.2, 0.005, 0)
     assert wps[1].q == (0.0, -1.57, 1.57, -1.57, -1.57, 0.0) and wps[1].progress == 1
+
+
+def test_fault_option_parsing():
+    from sim.ursim.admin import parse_fault_option
+
+    f = parse_fault_option("protective_stop@progress=20:bumped the fixture")
+    assert f["kind"] == "protective_stop" and f["at_progress"] == 20 and f["arg"] == "bumped the fixture"
+    f = parse_fault_option("stall@t=2.5:10")
+    assert f["kind"] == "stall" and f["arg"] == "10" and "at_time" in f
+    with pytest.raises(ValueError, match="unknown fault"):
+        parse_fault_option("gremlins")
+    with pytest.raises(ValueError, match="bad fault trigger"):
+        parse_fault_option("estop@sometime")
