@@ -1,6 +1,8 @@
 """`fabkit ursim`: run the UR controller stand-in in the foreground."""
 from __future__ import annotations
 
+from fabkit.commands._common import add_common
+
 HELP = """Run the UR controller stand-in in the foreground.
 
 It speaks the controller's protocols on one loopback address: RTDE (30004), dashboard (29999),
@@ -38,6 +40,7 @@ def add_arguments(parser) -> None:
                         "default 0 = normal scheduling)")
     parser.add_argument("--log", metavar="FILE", help="append the controller log to FILE")
     parser.add_argument("-v", "--verbose", action="store_true", help="print the controller log to stderr")
+    add_common(parser)
 
 
 def run(args) -> int:

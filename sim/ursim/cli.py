@@ -5,6 +5,7 @@ import ipaddress
 import signal
 import sys
 import threading
+import time
 
 import numpy as np
 
@@ -87,16 +88,27 @@ def run_stand_in(args) -> int:
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     v = cfg.version
-    print(f"{READY} on {cfg.host}: RTDE 30004, dashboard 29999, script 30001-30003, admin {cfg.ports['admin']}; "
-          f"{cfg.model.upper()}, controller {v[0]}.{v[1]}.{v[2]}.{v[3]}, {1 / stand_in.ctrl.period:.0f} Hz"
-          + (f", cell {cfg.cell.name} (MuJoCo collisions)" if cfg.cell else ", no cell (no collision model)"),
-          flush=True)
+    quiet = getattr(args, "quiet", False)
+    t_start = time.monotonic()
+    if not quiet:
+        print(f"{READY} on {cfg.host}: RTDE 30004, dashboard 29999, script 30001-30003, admin {cfg.ports['admin']}; "
+              f"{cfg.model.upper()}, controller {v[0]}.{v[1]}.{v[2]}.{v[3]}, {1 / stand_in.ctrl.period:.0f} Hz"
+              + (f", cell {cfg.cell.name} (MuJoCo collisions)" if cfg.cell else ", no cell (no collision model)"),
+              flush=True)
     try:
         while not stop.is_set() and not stand_in.done.is_set():
             stop.wait(0.2)
     except KeyboardInterrupt:
         pass
     finally:
+        state = stand_in.ctrl.state()
         stand_in.close()
-    print("ursim: stopped", file=sys.stderr, flush=True)
+    if getattr(args, "report", None):
+        from fabkit.commands._common import write_json
+
+        write_json(args.report, {"host": cfg.host, "version": ".".join(map(str, v)), "model": cfg.model,
+                                 "cell": cfg.cell.name if cfg.cell else None, "period_s": stand_in.ctrl.period,
+                                 "uptime_s": time.monotonic() - t_start, "final_state": state})
+    if not quiet:
+        print("ursim: stopped", file=sys.stderr, flush=True)
     return 0
