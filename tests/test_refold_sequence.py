@@ -226,3 +226,17 @@ def test_newton_chord_and_full_newton_both_meet_acceptance():
     # different points of the same manifold only where closure leaves freedom: close, same ends
     assert np.abs(seqs[0].angles - seqs[1].angles).max() < 1e-3
     np.testing.assert_array_equal(seqs[0].angles[[0, -1]], seqs[1].angles[[0, -1]])
+
+
+def test_strip_steps_fold_the_creases_bounding_each_strip_in_order():
+    flat, target = reflect_pair(2, columns=8, rows=2)
+    seq = refold(flat, target, frames=4, steps="strip0,strip1")  # strip0: crease 0; strip1: crease 1 (left)
+    assert seq.converged.all() and seq.residual.max() <= TOL_STATE
+    assert seq.target_distance <= TOL_TARGET * seq.panel_size
+    crease_row = seq.edge_crease[seq.driven]
+    first = seq.driven[crease_row == 0]
+    second = seq.driven[crease_row == 1]
+    np.testing.assert_allclose(seq.angles[3, first], seq.target_angles[first], atol=1e-14)
+    np.testing.assert_array_equal(seq.angles[:4, second], 0.0)
+    np.testing.assert_allclose(seq.angles[4:, second] / seq.target_angles[second], [[1 / 3], [2 / 3], [1.0]],
+                               atol=1e-14)
