@@ -194,6 +194,7 @@ class Sender:
         self.last_state: dict | None = None
         self._last_ts = None
         self._last_ts_change = 0.0
+        self._watch = None  # (progress callback, op id) of the asynchronous move being watched
 
     def event(self, **kw) -> None:
         kw.setdefault("t", round(time.time(), 4))
@@ -288,6 +289,8 @@ class Sender:
             word = st["progress_word"]
             op, running, progress = self._op(word)
             if word != base and op >= 1:
+                if not started:
+                    self._watch = (on_running, op)
                 started = True
             elif started and op == 0:
                 # a fresh script's "no operation" word in the middle of our move: ur_rtde lost the
@@ -426,6 +429,20 @@ class Sender:
             raise SendError(f"--resume-from {k}: the TCP is {d * 1e3:.1f} mm from the segment between waypoints "
                             f"{k - 1} and {k} (allowed {tol * 1e3:.1f} mm); move the arm there first")
 
+    def settle_progress(self) -> None:
+        """After a fault: the stopped program's async word still holds the last waypoint it began,
+        which may be newer than the last poll saw; count it (never more than the controller says)."""
+        if self._watch is None or self.worker is None or not self.worker.alive:
+            return
+        on_running, op = self._watch
+        try:
+            st = self.call("state", timeout=1.0)
+        except (WorkerError, CallError):
+            return
+        o, running, progress = self._op(st["progress_word"])
+        if o == op and running:
+            on_running(progress, st)
+
     def stop_arm(self) -> str:
         """Best effort: stopL through the control script; kill the worker if it does not answer."""
         if self.worker is None or not self.worker.alive:
@@ -475,9 +492,11 @@ class Sender:
         except _Fault as exc:
             result.reason = str(exc)
             result.events.append(self.stop_arm())
+            self.settle_progress()
         except CallError as exc:
             result.reason = f"ur_rtde error: {exc}"
             result.events.append(self.stop_arm())
+            self.settle_progress()
         except WorkerError as exc:
             result.reason = f"controller link lost: {exc}"
         finally:
