@@ -214,3 +214,16 @@ def test_chunk_entries_keep_rounded_blends_apart():
     r = np.array([e[2][8] for e in entries])
     assert np.all(r[:-1] + r[1:] < seg)  # no overlap after rounding
     assert 0 < red < 1e-4 and qm <= 5e-7 and qr <= 5e-6
+
+
+def test_no_controller_at_the_address(job, capsys):
+    import random
+
+    from _ursim import free_loopback_hosts
+
+    tp, path, check = job
+    nobody = free_loopback_hosts(random.Random(7))[0]
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", nobody)
+    assert r.returncode == 1
+    assert "stopped: ur_rtde error: RuntimeError: Timeout connecting to UR dashboard server." in r.stderr
+    assert "last completed waypoint -1 of 59" in r.stderr
