@@ -118,31 +118,40 @@ def loop_closure(loops: VertexLoops, rho: np.ndarray, *, jacobian: bool = True):
     """Residual `r` (nv, 3) = rotvec(P_v) and, if asked, the crease directions `omega` (nv, k, 3).
 
     `omega[i, k]` is the Jacobian entry d r_i / d rho_{edge[i, k]} (see the module docstring).
-    Quaternion products, exp and log maps are written out in numpy (scipy's Rotation gives the same
-    numbers, checked in the tests, but its per-call overhead dominated the solve).
+    Quaternion products, exp and log maps are written out in numpy on one contiguous array per
+    component (the same arithmetic as `_qmul`/`_qrotate`; scipy's Rotation gives the same numbers,
+    checked in the tests, but its per-call overhead dominated the solve, and the component-major
+    layout is 2x faster than (nv, 4) rows).
     """
     nv, kmax = loops.edge.shape
     if nv == 0:
         return np.zeros((0, 3)), np.zeros((0, kmax, 3))
-    angles = np.where(loops.edge >= 0, np.asarray(rho)[np.maximum(loops.edge, 0)], 0.0)
-    # exp map of every step at once: axis is a unit vector (or 0 for padding)
-    half = 0.5 * angles[..., None]
-    steps = np.concatenate([loops.axis * np.sin(half), np.cos(half)], axis=-1)  # (nv, k, 4)
-    acc = np.zeros((nv, 4))
-    acc[:, 3] = 1.0
+    ax = loops.axis.transpose(2, 1, 0)                                  # (3, k, nv)
+    half = np.where(loops.edge.T >= 0, np.asarray(rho)[np.maximum(loops.edge, 0)].T, 0.0) * 0.5  # (k, nv)
+    sin, cos = np.sin(half), np.cos(half)
+    bx, by, bz = ax[0] * sin, ax[1] * sin, ax[2] * sin  # exp map of every step (axis unit, or 0 for padding)
+    x, y, z, w = np.zeros(nv), np.zeros(nv), np.zeros(nv), np.ones(nv)
     omega = np.empty((nv, kmax, 3)) if jacobian else None
     for k in range(kmax):
-        if jacobian:
-            omega[:, k] = _qrotate(acc, loops.axis[:, k])
-        acc = _qmul(acc, steps[:, k])
+        if jacobian:  # omega_k = acc rotating a_k: v + 2w (u x v) + u x (2 u x v)
+            vx, vy, vz = ax[0, k], ax[1, k], ax[2, k]
+            tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
+            omega[:, k, 0] = vx + w * tx + (y * tz - z * ty)
+            omega[:, k, 1] = vy + w * ty + (z * tx - x * tz)
+            omega[:, k, 2] = vz + w * tz + (x * ty - y * tx)
+        qx, qy, qz, qw = bx[k], by[k], bz[k], cos[k]
+        x, y, z, w = (w * qx + x * qw + y * qz - z * qy,
+                      w * qy - x * qz + y * qw + z * qx,
+                      w * qz + x * qy - y * qx + z * qw,
+                      w * qw - x * qx - y * qy - z * qz)
     # log map (scipy's as_rotvec, written out to skip its per-call overhead): angle = 2 atan2(|u|, w)
-    acc *= np.where(acc[:, 3:4] < 0, -1.0, 1.0)
-    s = np.linalg.norm(acc[:, :3], axis=1)
-    angle = 2.0 * np.arctan2(s, acc[:, 3])
+    sign = np.where(w < 0, -1.0, 1.0)
+    x, y, z, w = x * sign, y * sign, z * sign, w * sign
+    s = np.sqrt(x * x + y * y + z * z)
+    angle = 2.0 * np.arctan2(s, w)
     small = s < 1e-8
-    scale = np.where(small, 2.0 / np.maximum(acc[:, 3], 1e-300) * (1.0 + s * s / 6.0), angle / np.where(small, 1.0, s))
-    r = acc[:, :3] * scale[:, None]
-    return r, omega
+    scale = np.where(small, 2.0 / np.maximum(w, 1e-300) * (1.0 + s * s / 6.0), angle / np.where(small, 1.0, s))
+    return np.stack([x * scale, y * scale, z * scale], axis=1), omega
 
 
 @dataclass(frozen=True)
