@@ -66,6 +66,7 @@ class SendSettings:
     final_tol_rad: float = 2e-3
     resume_tol_m: float = 0.005
     rt_priority: int = -1
+    connect_retry_s: float = 3.0  # keep trying the dashboard this long (a controller still starting)
 
 
 @dataclass
@@ -206,7 +207,15 @@ class Sender:
     # ---- steps ----------------------------------------------------------------------------------
     def preflight(self) -> str:
         s = self.s
-        version = self.call("connect_dashboard", timeout=s.connect_timeout_s)
+        t_end = time.monotonic() + s.connect_retry_s
+        while True:
+            try:
+                version = self.call("connect_dashboard", timeout=s.connect_timeout_s)
+                break
+            except CallError:
+                if time.monotonic() > t_end:
+                    raise
+                time.sleep(0.25)
         mode = self.call("dashboard", "robotmode")
         if "RUNNING" not in mode:
             if not s.power_on:
