@@ -107,3 +107,25 @@ def test_ursim_cli_refuses_bad_options(args, message, capsys):
     assert fabkit_main(["ursim", *args]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
+
+
+def test_fabkit_urscript_program_runs_on_the_script_port(standin, ready):
+    """robot.urscript's program for the demo toolpath, sent to port 30002, runs to the end: the arm
+    ends on the last waypoint, the progress register counts to the end, the gripper opened again."""
+    import socket
+
+    from _ursim import demo_toolpath
+    from robot.urscript import PROGRESS_REGISTER, write_urscript
+
+    ctrl, recv = ready
+    ctrl.stopScript()  # the controller runs one program at a time
+    tp = demo_toolpath()
+    text = write_urscript(tp)
+    with socket.create_connection((standin.host, 30002), timeout=5) as s:
+        s.sendall(text.encode())
+    assert _wait(lambda: standin.state()["out_int"][PROGRESS_REGISTER] == len(tp), timeout=60)
+    state = standin.state()
+    assert state["runtime_state"] == 1
+    assert np.abs(np.array(state["q"]) - tp.waypoints[-1]["q"]).max() < 1e-9
+    assert not state["digital_out"] & (1 << 16)
+    assert any("program fabkit_" in line and "finished" in line for line in state["log_tail"])

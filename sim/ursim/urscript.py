@@ -7,8 +7,9 @@ Statements (one per line): `def NAME():` / `end`, comments, `set_tcp(p[...])`,
 `signal_async_progress(i)` (ur_rtde paths). Anything else is rejected with the line number, and the
 program does not run (as a controller refuses a program that does not compile).
 
-Consecutive moves run as one blended motion; a non-move statement between moves brings the arm to
-rest first (the stand-in has no lookahead across other statements).
+Consecutive moves run as one blended motion; register writes, digital outputs and textmsg between
+moves run when the motion toward the next target begins (the controller's lookahead), while any
+other statement (sleep, set_tcp) between moves brings the arm to rest first.
 """
 from __future__ import annotations
 
@@ -22,6 +23,9 @@ import numpy as np
 from sim.ursim.motion import PlanError, Waypoint, plan_moves
 
 MOVES = ("movej", "movel", "movep")
+#: Statements that take no time: run during a blended motion without stopping it.
+INSTANT = ("write_output_integer_register", "set_tool_digital_out", "set_standard_digital_out",
+           "set_configurable_digital_out", "textmsg")
 _CALL = re.compile(r"^([A-Za-z_]\w*)\s*\((.*)\)\s*$")
 _DEFAULTS = {"movej": (1.4, 1.05), "movel": (1.2, 0.25), "movep": (1.2, 0.25)}  # (a, v)
 
@@ -177,11 +181,7 @@ class URScriptProgram:
             i, sts = 0, self.statements
             while i < len(sts):
                 if sts[i].name in MOVES:
-                    j = i
-                    while j < len(sts) and sts[j].name in MOVES:
-                        j += 1
-                    self._move([waypoint_of(s) for s in sts[i:j]])
-                    i = j
+                    i = self._move_group(i)
                 else:
                     self._do(sts[i])
                     i += 1
@@ -193,18 +193,50 @@ class URScriptProgram:
         finally:
             self.running = False
 
+    def _move_group(self, i: int) -> int:
+        """Run the moves from statement i as one blended motion; returns the next statement index.
+
+        Instant statements between moves (register writes, digital outputs, textmsg) do not break
+        the blend: as with the controller's lookahead, each runs when the motion toward the next
+        move's target begins. Anything else (sleep, set_tcp, ...) ends the group at rest.
+        """
+        sts = self.statements
+        moves, actions, pending, j, end = [], {}, [], i, i
+        while j < len(sts) and (sts[j].name in MOVES or sts[j].name in INSTANT):
+            if sts[j].name in MOVES:
+                actions[len(moves)] = pending
+                moves.append(waypoint_of(sts[j], progress=len(moves)))
+                pending, end = [], j + 1
+            else:
+                pending.append(sts[j])
+            j += 1
+        self._move(moves, actions)
+        return end  # instant statements after the last move run normally
+
+    def _instant(self, st: Statement) -> None:
+        """An instant statement, run from the controller tick (must not block)."""
+        try:
+            self._do(st)
+        except (Killed, PlanError) as exc:
+            self.ctrl.log(f"program {self.name}: {exc}")
+
     def _check(self) -> None:
         if self._killed.is_set():
             raise Killed()
 
-    def _move(self, waypoints: list[Waypoint]) -> None:
+    def _move(self, waypoints: list[Waypoint], actions: dict | None = None) -> None:
         ctrl = self.ctrl
         done = threading.Event()
+        actions = actions or {}
+
+        def marker(k):
+            for st in actions.get(k, ()):
+                self._instant(st)
         with ctrl.lock:
             self._check()
             traj = plan_moves(ctrl.model, ctrl.tcp, ctrl.arm.q.copy(), resolve_fk_targets(ctrl, waypoints),
                               ctrl.period)
-            ctrl.arm.run(traj, on_done=lambda ok: done.set())
+            ctrl.arm.run(traj, on_marker=marker, on_done=lambda ok: done.set())
         while not done.wait(0.05):
             self._check()
         self._check()
