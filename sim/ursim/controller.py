@@ -376,13 +376,19 @@ class Controller:
                 k += missed
                 steps += min(missed, 50)
             with self.lock:
-                for j in range(steps):  # catching up: every missed period is simulated and checked
-                    self.timestamp = (k - steps + 1 + j) * period
-                    self.arm.step(period, self.speed_fraction if not self.paused else 0.0, self.timestamp)
-                    self._safety_checks()
+                try:
+                    for j in range(steps):  # catching up: every missed period is simulated and checked
+                        self.timestamp = (k - steps + 1 + j) * period
+                        self.arm.step(period, self.speed_fraction if not self.paused else 0.0, self.timestamp)
+                        self._safety_checks()
+                    self._update_pose()
+                    self._run_pending_faults()
+                except Exception as exc:  # a bug must not silence the controller: stop the program, go on
+                    self.log(f"stand-in error in the control tick: {type(exc).__name__}: {exc}")
+                    self.arm.halt()
+                    if self.program is not None and self.program.running:
+                        self.program.kill("stand-in error")
                 self.tick_index = k
-                self._update_pose()
-                self._run_pending_faults()
             with self.tick_cond:
                 self.tick_cond.notify_all()
             self._stream(k)
