@@ -397,7 +397,11 @@ class Controller:
         if time.monotonic() < self.stall_until:
             return
         for conn in list(self.rtde_conns):
-            conn.maybe_send(k, self)
+            try:
+                conn.maybe_send(k, self)
+            except Exception as exc:  # one bad recipe or socket must not stop the others
+                self.log(f"rtde client {conn.id}: cannot send ({type(exc).__name__}: {exc}): closing")
+                conn.close()
 
     # ---- scheduled faults --------------------------------------------------------------------
     def schedule_fault(self, fault: dict) -> None:
