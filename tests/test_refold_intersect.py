@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from fabkit.refold.intersect import candidate_pairs, intersecting_pairs, triangles_intersect
+from fabkit.refold.intersect import candidate_pairs, intersecting_pairs, neighbour_keys, triangles_intersect
 
 T0 = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 
@@ -115,3 +115,17 @@ def test_broad_phase_skips_neighbours_and_far_pairs():
     for i, j in pairs:
         assert not set(tris[i]) & set(tris[j])
         assert np.linalg.norm(V[tris[i]].mean(0) - V[tris[j]].mean(0)) < 1.0
+
+
+def test_neighbour_keys_are_exactly_the_vertex_sharing_pairs():
+    V, tris = _strip()
+    T = len(tris)
+    brute = sorted(i * T + j for i in range(T) for j in range(i + 1, T) if set(tris[i]) & set(tris[j]))
+    np.testing.assert_array_equal(neighbour_keys(tris), brute)
+    # passing the precomputed keys changes nothing, folded or flat
+    W = _fold(_fold(V, np.radians(120), at=0.5), np.radians(170), at=0.0)
+    for X in (V, W):
+        np.testing.assert_array_equal(candidate_pairs(X, tris, neighbours=neighbour_keys(tris)),
+                                      candidate_pairs(X, tris))
+    np.testing.assert_array_equal(intersecting_pairs(W, tris, neighbours=neighbour_keys(tris)),
+                                  intersecting_pairs(W, tris))

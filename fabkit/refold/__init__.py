@@ -14,7 +14,7 @@ from fabkit.errors import InputError
 from fabkit.measures import dihedral_angles
 from fabkit.mesh import PolyMesh
 from fabkit.refold.geometry import build_face_tree, corner_mismatch, face_transforms, vertex_positions
-from fabkit.refold.intersect import intersecting_pairs
+from fabkit.refold.intersect import intersecting_pairs, neighbour_keys
 from fabkit.refold.kinematics import (SOLVERS, JacobianPattern, MinNormSolver, NewtonResult, build_vertex_loops,
                                       loop_closure, project_to_constraints)
 from fabkit.refold.sequence import (FoldSequence, build_schedule, edge_kind_names, middle_row_hinges,
@@ -75,6 +75,7 @@ class RefoldSolver:
                                            - self.flat_vertices[self.panel.edges[:, 0]], axis=1)
         self.hinges = np.flatnonzero(self.panel.hinge_mask)
         self._patterns: dict[bytes, JacobianPattern] = {}
+        self.neighbour_keys = neighbour_keys(self.panel.tris)  # triangle pairs that may touch (interpenetration check)
 
     # ---- set-up helpers --------------------------------------------------------------------
     def _pick_fixed_face(self, fixed_face: int | None, flat_name: str) -> int:
@@ -200,7 +201,8 @@ class RefoldSolver:
             d = self.diagnostics(rho, V, tr)
             resid[s], elen[s], cmis[s] = d["residual"], d["edge_length_error"], d["corner_mismatch"]
             if check_intersections:
-                inter[s] = len(intersecting_pairs(V, self.panel.tris, tol=1e-9 * self.panel_size))
+                inter[s] = len(intersecting_pairs(V, self.panel.tris, tol=1e-9 * self.panel_size,
+                                                    neighbours=self.neighbour_keys))
             if progress is not None:
                 progress(1)
             if not conv[s]:

@@ -12,26 +12,51 @@ Touching within `tol` (a length) does not count as intersecting.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-__all__ = ["candidate_pairs", "triangles_intersect", "intersecting_pairs"]
+__all__ = ["neighbour_keys", "candidate_pairs", "triangles_intersect", "intersecting_pairs"]
 
 
-def candidate_pairs(V: np.ndarray, tris: np.ndarray, pad: float = 0.0) -> np.ndarray:
-    """Pairs (i < j) of triangles whose bounding spheres overlap and that share no vertex."""
+def neighbour_keys(tris: np.ndarray) -> np.ndarray:
+    """Sorted keys `i * T + j` of the triangle pairs (i < j) that share a vertex.
+
+    Depends on the topology only: compute once and pass to `candidate_pairs` for every state.
+    """
+    tris = np.asarray(tris, np.int64)
+    T = len(tris)
+    tri_of = np.repeat(np.arange(T), 3)
+    inc = sp.csr_matrix((np.ones(3 * T), (tris.ravel(), tri_of)), shape=(int(tris.max(initial=-1)) + 1, T))
+    adj = sp.triu(inc.T @ inc, k=1).tocoo()   # triangles sharing at least one vertex
+    return np.sort(adj.row.astype(np.int64) * T + adj.col)
+
+
+def candidate_pairs(V: np.ndarray, tris: np.ndarray, pad: float = 0.0,
+                    neighbours: np.ndarray | None = None) -> np.ndarray:
+    """Pairs (i < j) of triangles whose bounding spheres overlap and that share no vertex.
+
+    `neighbours`: `neighbour_keys(tris)` if already known (saves recomputing it per state).
+    """
     P = V[tris]
     c = P.mean(axis=1)
-    rad = np.linalg.norm(P - c[:, None], axis=2).max(axis=1) + pad
+    rad = np.sqrt(((P - c[:, None]) ** 2).sum(axis=2).max(axis=1)) + pad
     if len(tris) < 2:
         return np.zeros((0, 2), np.int64)
     pairs = cKDTree(c).query_pairs(2.0 * float(rad.max()), output_type="ndarray")
     if len(pairs) == 0:
         return np.zeros((0, 2), np.int64)
-    i, j = pairs[:, 0], pairs[:, 1]
-    near = np.linalg.norm(c[i] - c[j], axis=1) <= rad[i] + rad[j]
+    i, j = pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.int64)
+    d = c[i] - c[j]
+    reach = rad[i] + rad[j]
+    near = np.einsum("ij,ij->i", d, d) <= reach * reach
     i, j = i[near], j[near]
-    share = (tris[i][:, :, None] == tris[j][:, None, :]).any(axis=(1, 2))
-    return np.stack([i[~share], j[~share]], axis=1).astype(np.int64)
+    lo, hi = np.minimum(i, j), np.maximum(i, j)
+    if neighbours is None:
+        neighbours = neighbour_keys(tris)
+    keys = lo * len(tris) + hi
+    pos = np.minimum(np.searchsorted(neighbours, keys), max(len(neighbours) - 1, 0))
+    share = neighbours[pos] == keys if len(neighbours) else np.zeros(len(keys), bool)
+    return np.stack([lo[~share], hi[~share]], axis=1)
 
 
 def _separated_on(axes: np.ndarray, A: np.ndarray, B: np.ndarray, tol: np.ndarray) -> np.ndarray:
@@ -78,10 +103,14 @@ def triangles_intersect(A: np.ndarray, B: np.ndarray, tol: float = 0.0) -> np.nd
     return out
 
 
-def intersecting_pairs(V: np.ndarray, tris: np.ndarray, tol: float = 0.0, chunk: int = 20000) -> np.ndarray:
-    """Pairs of triangles (sharing no vertex) that pass through each other in positions V."""
+def intersecting_pairs(V: np.ndarray, tris: np.ndarray, tol: float = 0.0, chunk: int = 20000,
+                       neighbours: np.ndarray | None = None) -> np.ndarray:
+    """Pairs of triangles (sharing no vertex) that pass through each other in positions V.
+
+    `neighbours`: `neighbour_keys(tris)`, to skip recomputing it for every state of one mesh.
+    """
     V = np.asarray(V, np.float64)
-    pairs = candidate_pairs(V, tris, pad=tol)
+    pairs = candidate_pairs(V, tris, pad=tol, neighbours=neighbours)
     hits = []
     for s in range(0, len(pairs), chunk):
         p = pairs[s:s + chunk]
