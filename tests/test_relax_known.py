@@ -152,3 +152,24 @@ def test_bad_inputs_raise_one_line_input_errors():
         relax(noisy, fixed=[10**6])
     with pytest.raises(ValueError, match="tol_defect"):
         RelaxOptions(tol_defect=-1)
+
+
+def test_triangle_meshes_and_unused_vertices():
+    """Triangles carry no planarity term; an unused vertex stays where it is and keeps its id."""
+    import warnings
+
+    from fabkit.mesh import PolyMesh
+
+    cyl = cylinder_grid(8, 5)
+    tris, _ = cyl.triangulate()
+    noisy, _ = perturbed(PolyMesh(cyl.vertices, tris), 0.02, seed=1)
+    res = relax(noisy)
+    assert res.converged and np.abs(measures.interior_angle_defect(res.mesh)).max() <= TOL
+    panel = reflect_panel(columns=6, rows=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        extra = PolyMesh(np.vstack([panel.vertices, [[5.0, 5.0, 5.0]]]), panel.faces_list())
+    noisy, _ = perturbed(extra, 0.01, seed=1)
+    res = relax(noisy)
+    assert res.converged and res.mesh.n_vertices == extra.n_vertices
+    assert np.array_equal(res.mesh.vertices[-1], noisy.vertices[-1])
