@@ -15,8 +15,8 @@ register moves and its injected paths ask for) into joint samples at the control
   segment end, so the arm ends exactly on the IK of each stopping waypoint.
 
 The path parameter is the largest joint move (rad) for movej, as UR's movej lets the leading joint
-run at `v`, and the TCP path length (m) for movel; a movel that only rotates the tool uses the
-rotation angle (rad). Hand-written: no library plans UR blends; scipy does the rotations and splines.
+run at `v`, and for movel the larger of the TCP travel (m) and the tool rotation (rad) per segment,
+so that `v` bounds both (the timing model of `robot.motion`). Hand-written: no library plans UR blends; scipy does the rotations and splines.
 """
 from __future__ import annotations
 
@@ -219,16 +219,18 @@ def _eval_joint(pieces, s):
 
 
 def _cart_run(P0, R0, poses, v, a, r):
-    """Pieces of a movel run (parameter = TCP path length in m, or rotation angle for pure turns)."""
+    """Pieces of a movel run. The path parameter of a segment is the larger of its TCP travel (m)
+    and its tool rotation (rad), so `v` also bounds the rotation speed (as `robot.motion` times
+    moves); blends are measured in metres of travel."""
     Ps = np.vstack([P0, poses[:, :3]])
     Rs = Rotation.concatenate([R0, Rotation.from_rotvec(poses[:, 3:])])
     d = np.diff(Ps, axis=0)
     tl = np.linalg.norm(d, axis=1)
     ang = np.array([(Rs[i].inv() * Rs[i + 1]).magnitude() for i in range(len(d))])
     trans = tl > MIN_TRANSLATION
-    plen = np.where(trans, tl, ang)
-    seg = [(plen[i], 1.0) for i in range(len(d))]
-    before, after = _blend_lengths(np.asarray(r), seg, trans & (plen > MIN_BLEND_SEGMENT), list(range(len(d))))
+    plen = np.where(trans, np.maximum(tl, ang), ang)
+    seg = [(tl[i], 1.0) for i in range(len(d))]
+    before, after = _blend_lengths(np.asarray(r), seg, trans & (tl > MIN_BLEND_SEGMENT), list(range(len(d))))
     pieces, s, start_off, begins, stops = [], 0.0, 0.0, [0.0], []
     for i in range(len(d)):
         if plen[i] <= 1e-12:
@@ -236,7 +238,7 @@ def _cart_run(P0, R0, poses, v, a, r):
             begins.append(s)
             continue
         slerp = Slerp([0.0, 1.0], Rotation.concatenate([Rs[i], Rs[i + 1]]))
-        f0, f1 = start_off / plen[i], (plen[i] - before[i]) / plen[i]
+        f0, f1 = (start_off / tl[i], (tl[i] - before[i]) / tl[i]) if trans[i] else (0.0, 1.0)
         if f1 > f0:
             pieces.append(_Piece(s, s + (f1 - f0) * plen[i], "line", (Ps[i], Ps[i + 1], slerp, f0, f1), v[i], a[i]))
             s += (f1 - f0) * plen[i]
@@ -247,12 +249,13 @@ def _cart_run(P0, R0, poses, v, a, r):
             A = Ps[i + 1] - d[i] / tl[i] * before[i]
             C = Ps[i + 1] + d[i + 1] / tl[i + 1] * after[i]
             RA = slerp([f1])[0]
-            RC = Slerp([0.0, 1.0], Rotation.concatenate([Rs[i + 1], Rs[i + 2]]))([after[i] / plen[i + 1]])[0]
+            RC = Slerp([0.0, 1.0], Rotation.concatenate([Rs[i + 1], Rs[i + 2]]))([after[i] / tl[i + 1]])[0]
             u, L = _bezier_table(A, Ps[i + 1], C)
-            pieces.append(_Piece(s, s + L[-1], "blend",
+            length = max(L[-1], (RA.inv() * RC).magnitude())
+            pieces.append(_Piece(s, s + length, "blend",
                                  (A, Ps[i + 1], C, u, L, Slerp([0.0, 1.0], Rotation.concatenate([RA, RC]))),
                                  min(v[i], v[i + 1]), min(a[i], a[i + 1])))
-            s += L[-1]
+            s += length
         start_off = after[i]
     return pieces, s, begins[:len(d)], stops
 
