@@ -108,11 +108,11 @@ def test_info_missing_file_and_report_directory(tmp_path, capsys):
 
 
 def test_file_formats_readme_examples_run(tmp_path):
-    """The console examples in docs/readme/file-formats.md produce the output shown there."""
+    """The console examples in docs/file-formats.md produce the output shown there."""
     import re
     import shlex
 
-    doc = (ROOT / "docs" / "readme" / "file-formats.md").read_text()
+    doc = (ROOT / "docs" / "file-formats.md").read_text()
     (tmp_path / "tests").symlink_to(ROOT / "tests")
     blocks = re.findall(r"```console\n(.*?)```", doc, flags=re.S)
     assert blocks

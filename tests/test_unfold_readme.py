@@ -1,4 +1,4 @@
-"""The console examples in docs/readme/unfold.md run as written (exit codes and summary lines)."""
+"""The console examples in docs/unfold.md run as written (exit codes and summary lines)."""
 import os
 import re
 import subprocess
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-README = Path(__file__).resolve().parents[1] / "docs" / "readme" / "unfold.md"
+README = Path(__file__).resolve().parents[1] / "docs" / "unfold.md"
 
 
 def console_blocks(text: str) -> list[list[tuple[str, list[str]]]]:
