@@ -5,8 +5,9 @@ OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 for the one-core target.
 
 Rows:
 - `sequence`: the whole schedule with each minimum-norm solver ("direct" sparse factorisation of
-  C C^T, "lsmr", "dense" numpy pinv = the baseline); time per state, Newton iterations per state,
-  and the accuracy reached. The dense baseline and LSMR run only on the smaller panel (on the large
+  C C^T, "lsmr", "dense" numpy pinv = the baseline); time per state, Newton iterations and
+  factorisations per state, and the accuracy reached. On the large panel also plain Newton
+  (`newton=full`: a factorisation at every step) against the default Newton-chord steps. The dense baseline and LSMR run only on the smaller panel (on the large
   one a single dense pinv of the 6912 x 7103 Jacobian takes minutes; LSMR needs ~1e5 iterations per
   step there); `ratio` = CPU time / direct CPU time on the same panel in the same run.
 - `one_step`: a single Newton linear solve on the large panel, direct (and, with
@@ -34,12 +35,12 @@ def _pair(columns: int, rows):
     return flat, panel
 
 
-def _run(flat, target, frames, solver):
+def _run(flat, target, frames, solver, chord=True):
     from fabkit.refold import RefoldSolver
     from fabkit.refold.sequence import build_schedule
 
     t0 = time.perf_counter()
-    s = RefoldSolver(flat, target, solver=solver)
+    s = RefoldSolver(flat, target, solver=solver, chord=chord)
     driven, _ = s.driven_hinges("middle-row")
     F, steps = build_schedule(s.panel, flat, driven, None, frames)
     setup = time.perf_counter() - t0
@@ -48,10 +49,12 @@ def _run(flat, target, frames, solver):
     solve, cpu = time.perf_counter() - t0, time.process_time() - c0
     its = seq.newton_iterations[1:]
     return {"vertices": flat.n_vertices, "hinges": int(seq.summary()["hinges"]), "states": seq.n_states,
-            "solver": solver, "setup_s": setup, "solve_s": solve, "cpu_s": cpu,
+            "solver": solver, "newton": "chord" if chord else "full", "setup_s": setup, "solve_s": solve, "cpu_s": cpu,
             "ms_per_state": 1e3 * solve / (seq.n_states - 1), "cpu_ms_per_state": 1e3 * cpu / (seq.n_states - 1),
             "newton_per_state_mean": float(its.mean()), "newton_per_state_max": int(its.max()),
-            "factorizations": s.linear_solver.factorizations, "lsmr_iterations": s.linear_solver.inner_iterations,
+            "factorizations": s.linear_solver.factorizations,
+            "factorizations_per_state": s.linear_solver.factorizations / (seq.n_states - 1),
+            "lsmr_iterations": s.linear_solver.inner_iterations,
             "max_loop_residual_rad": float(seq.residual.max()),
             "max_edge_length_error": float(seq.edge_length_error.max()),
             "target_distance_rel": seq.target_distance / seq.panel_size,
@@ -66,6 +69,8 @@ def main(frames: int = 100) -> dict:
     big = _pair(49, [16, 16, 17])           # 50 x 50 = 2,500 vertices
     r, seq, solver = _run(*big, frames, "direct")
     rows.append({"case": "sequence", **r, "target_s": 2.0, "ratio": 1.0})
+    full, _, _ = _run(*big, frames, "direct", chord=False)   # a factorisation at every Newton step
+    rows.append({"case": "sequence", **full, "ratio": full["cpu_s"] / r["cpu_s"]})
     small = _pair(24, [8, 8, 8])             # 25 x 25 = 625 vertices
     small_frames = 6
     base, _, _ = _run(*small, small_frames, "direct")
@@ -81,11 +86,11 @@ def main(frames: int = 100) -> dict:
     res, omega = loop_closure(solver.loops, rho)
     C = JacobianPattern(solver.loops, free).matrix(omega)
     b = -res.ravel()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     x_direct = MinNormSolver("direct").solve(C, b)
-    t_direct = time.perf_counter() - t0
+    t_direct, c_direct = time.perf_counter() - t0, time.process_time() - c0
     row = {"case": "one_step", "vertices": big[0].n_vertices, "rows": C.shape[0], "cols": C.shape[1],
-           "solver": "direct", "solve_s": t_direct, "ratio": 1.0}
+           "solver": "direct", "solve_s": t_direct, "cpu_s": c_direct, "ratio": 1.0}
     rows.append(row)
     if os.environ.get("FABKIT_BENCH_DENSE_LARGE", "0") != "0":  # minutes: opt in
         t0 = time.perf_counter()
@@ -95,12 +100,14 @@ def main(frames: int = 100) -> dict:
                      "solver": "dense", "solve_s": t_dense, "ratio": t_dense / t_direct,
                      "max_diff_vs_direct": float(np.abs(x_dense - x_direct).max())})
 
-    t0 = time.perf_counter()
-    hits = [len(intersecting_pairs(seq.positions[s], seq.tris, tol=1e-9 * seq.panel_size))
+    t0, c0 = time.perf_counter(), time.process_time()
+    hits = [len(intersecting_pairs(seq.positions[s], seq.tris, tol=1e-9 * seq.panel_size,
+                                   neighbours=solver.neighbour_keys))
             for s in range(0, seq.n_states, 10)]
     t_int = (time.perf_counter() - t0) / len(hits)
+    c_int = (time.process_time() - c0) / len(hits)
     rows.append({"case": "intersections", "vertices": big[0].n_vertices, "triangles": len(seq.tris),
-                 "ms_per_state": 1e3 * t_int, "states_with_hits": int(np.sum(np.array(hits) > 0))})
+                 "ms_per_state": 1e3 * t_int, "cpu_ms_per_state": 1e3 * c_int, "states_with_hits": int(np.sum(np.array(hits) > 0))})
     return report("bench_refold", rows, meta={
         "what": f"refold of a two-crease reflect panel, {frames} states, middle-row drive, tol 1e-12 rad",
         "target": "100 states of a ~2,500-vertex panel in <= 2 s on one core",
