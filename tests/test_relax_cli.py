@@ -1,7 +1,6 @@
 """`fabkit relax` end to end: exit codes 0/1/2, output file contract, JSON report."""
 import json
 
-import numpy as np
 import pytest
 
 from fabkit.cli import main
