@@ -52,7 +52,7 @@ def test_perturbed_reflect_panel_relaxes_back(name, noise):
     dist = np.linalg.norm(res.mesh.vertices - truth.vertices, axis=1)
     assert dist.max() <= 6 * sigma
     # no flattening: the crease keeps its fold (mean over the crease within a fraction of a degree),
-    # every crease edge within a few degrees (measured: <= 2.5° at 1 %, <= 7° at 3 %, see docs/readme/relax.md)
+    # every crease edge within a few degrees (measured: <= 2.5° at 1 %, <= 7° at 3 %, see docs/relax.md)
     ce = crease_edges(truth)
     d0 = measures.dihedral_angles(truth)[ce]
     d1 = measures.dihedral_angles(res.mesh)[ce]
