@@ -65,6 +65,7 @@ class SendSettings:
     final_tol_m: float = 2e-4
     final_tol_rad: float = 2e-3
     resume_tol_m: float = 0.005
+    start_tol_rad: float = 0.01  # a fresh start needs the arm this close to waypoint 0 (joints)
     rt_priority: int = -1
     connect_retry_s: float = 3.0  # keep trying the dashboard this long (a controller still starting)
 
@@ -418,12 +419,19 @@ class Sender:
             self.set_gripper(op == "grip", float(g.get(f"{op}_dwell_s", 0.5)))
 
     def check_resume(self) -> None:
-        """The arm must stand on the way into waypoint `resume_from`: near the TCP line from the
-        previous waypoint for a movel, near the joint-space line for a movej."""
+        """Where the arm must stand before sending. A fresh start: at waypoint 0 (the check covered
+        the motion between waypoints, not from an arbitrary pose to the first one). A resume: on
+        the way into waypoint `resume_from` (near the TCP line from the previous waypoint for a
+        movel, near the joint-space line for a movej)."""
         k = self.s.resume_from
-        if k == 0:
-            return
         st = self.poll()
+        if k == 0:
+            off = np.abs(np.subtract(st["q"], self.wps[0]["q"]))
+            if off.max() > self.s.start_tol_rad:
+                j = int(np.argmax(off))
+                raise _Fault(f"the arm is not at waypoint 0 (joint {j + 1} is {off[j]:.3f} rad away): move it "
+                             f"there first (the check did not cover a move from here)")
+            return
         a, b = self.wps[k - 1], self.wps[k]
         if b["move"] == "movej":
             d = point_segment_distance_nd(st["q"], a["q"], b["q"])

@@ -189,3 +189,16 @@ def write_job(tmp: Path, tp, check: dict | None = None) -> tuple[Path, Path]:
 def run_fabkit(*args: str, timeout: float = 120.0, env: dict | None = None) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "fabkit", *args], cwd=ROOT, capture_output=True, text=True,
                           timeout=timeout, env={**os.environ, **(env or {})})
+
+
+def move_to(host: str, q, *, timeout: float = 30.0) -> None:
+    """Move the arm to joints `q` with the real ur_rtde control interface (test set-up)."""
+    import rtde_control
+
+    ctrl = rtde_control.RTDEControlInterface(host, -1.0, rtde_control.RTDEControlInterface.FLAG_UPLOAD_SCRIPT,
+                                             50002, -1)
+    try:
+        assert ctrl.moveJ([float(x) for x in q], 1.5, 3.0), "set-up move failed"
+        ctrl.stopScript()
+    finally:
+        ctrl.disconnect()

@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pytest
 
-from _ursim import CELL, ROOT, StandIn, demo_toolpath, external_host, write_job
+from _ursim import CELL, ROOT, StandIn, demo_toolpath, external_host, move_to, write_job
 from fabkit.cli import main as fabkit_main
 
 pytestmark = pytest.mark.network
@@ -51,6 +51,8 @@ def job(tmp_path_factory):
 
 def test_send_runs_the_demo_toolpath_to_completion(standin, host, job, tmp_path, capsys):
     tp, path, check = job
+    if standin is None:  # a real URSim / robot: start where the toolpath starts
+        move_to(host, tp.waypoints[0]["q"])
     log, report = tmp_path / "send.log", tmp_path / "report.json"
     r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", host, "--log", str(log), "--report", str(report))
     assert r.returncode == 0, r.stderr

@@ -6,9 +6,10 @@ import json
 import re
 import time
 
+import numpy as np
 import pytest
 
-from _ursim import CELL, StandIn, demo_toolpath, external_host, free_loopback_hosts, write_job
+from _ursim import CELL, StandIn, demo_toolpath, external_host, free_loopback_hosts, move_to, write_job
 from fabkit.cli import main as fabkit_main
 
 pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not None,
@@ -29,10 +30,14 @@ def job(tmp_path_factory):
 
 
 @pytest.fixture(autouse=True)
-def healthy(standin):
-    """Every test starts and ends with a healthy controller and no program running."""
+def healthy(standin, job):
+    """Every test starts with a healthy controller, no program running and the arm at waypoint 0."""
     standin.admin("normal")
     standin.admin("program_stop")
+    standin.admin("estop_release")
+    q0 = job[0].waypoints[0]["q"]
+    if np.abs(np.subtract(standin.state()["q"], q0)).max() > 1e-6:
+        move_to(standin.host, q0)
     yield
     standin.admin("normal")
     standin.admin("estop_release")
