@@ -89,6 +89,9 @@ class _Channels:
     def set_tcp(self, pose) -> bool:
         return bool(self.ctrl.setTcp(list(pose)))
 
+    def get_tcp(self) -> list:
+        return list(self.ctrl.getTCPOffset())
+
     def move_path(self, entries: list, asynchronous: bool) -> bool:
         """entries: [(move "movej"|"movel", "q"|"pose", [9 values]), ...] -> movePath."""
         import rtde_control

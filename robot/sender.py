@@ -485,7 +485,11 @@ class Sender:
             self.event(step="preflight ok", controller=result.controller)
             self.call("connect_receive", s.monitor_hz, timeout=s.connect_timeout_s)
             self.call("connect_control", s.rt_priority, timeout=s.connect_timeout_s)
-            self.call("set_tcp", list(self.tp.tcp))
+            if not self.call("set_tcp", list(self.tp.tcp)):
+                raise _Fault("the controller refused the toolpath's TCP")
+            active = self.call("get_tcp")
+            if len(active) != 6 or np.abs(np.subtract(active, self.tp.tcp)).max() > 1e-9:
+                raise _Fault(f"the controller's active TCP {active} is not the toolpath's {list(self.tp.tcp)}")
             if self._grip() is not None:
                 self.call("connect_io", timeout=s.connect_timeout_s)
                 self.set_gripper(self.gripper_state_at(s.resume_from))
