@@ -9,7 +9,11 @@ Residuals (dimensionless):
   Plane (§2.4): normal = sum of corner cross products, origin = centroid (``"cross"``), or the
   smallest-eigenvalue eigenvector of the vertex covariance (``"covariance"``, Poranne et al. 2013).
 
-Energy ``E = ½ Σ K_v² + w_p · ½ Σ_f Σ_v (d_fv / L)²`` (+ optional closeness ``w_c · ½ Σ |x − x0|² / L²``).
+* kept edge lengths (optional): ``r_e = (|x_u − x_v| − L_e) / L_e`` for each requested edge, weighted
+  by ``sqrt(w_e)`` in the residual vector (lets neighbouring panels keep their shared edges).
+
+Energy ``E = ½ Σ K_v² + w_p · ½ Σ_f Σ_v (d_fv / L)² + w_e · ½ Σ_e r_e²`` (+ optional closeness
+``w_c · ½ Σ |x − x0|² / L²``).
 Its gradient includes the terms that act on boundary vertices through their interior neighbours'
 angle sums (§2.5, Fig. 7): they fall out of the corner-angle gradient at the neighbouring corners.
 
@@ -26,7 +30,7 @@ row per quad, ``q = (d0 − d1 + d2 − d3)/2`` with ``q² = Σ d²``: same ener
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -65,7 +69,13 @@ class Evaluation:
     defect: np.ndarray            # K_v at the defect vertices (rad)
     planarity: np.ndarray         # per face: max |d| / mean edge length of the face (triangles 0)
     gradient: np.ndarray | None   # (n, 3) dE/dx (zero rows at fixed vertices), or None
-    force_residual: float         # max_v |∇_v E_dev+plan| · L at free vertices (dimensionless); NaN without gradient
+    force_residual: float         # max_v |∇_v E_dev+plan+edge| · L at free vertices (dimensionless); NaN without gradient
+    edge_length: np.ndarray = field(default_factory=lambda: np.zeros(0))  # r_e = (|x_u - x_v| - L_e) / L_e of the kept edges
+
+    @property
+    def max_edge_length(self) -> float:
+        """max |r_e| over the kept edges (0 when none are kept)."""
+        return float(np.max(np.abs(self.edge_length))) if len(self.edge_length) else 0.0
 
     @property
     def max_defect(self) -> float:
@@ -103,13 +113,15 @@ class EnergyModel:
     topology: the mesh connectivity; defect_mask (n,) bool: vertices with an angle-defect term;
     free_mask (n,) bool: vertices that move (others are held fixed: zero gradient, no Jacobian column);
     planarity_weight w_p >= 0; plane_method "cross" | "covariance"; length_scale L > 0 [m];
-    closeness_weight w_c >= 0 with reference positions x_ref (n, 3) (used by energy/gradient only).
+    closeness_weight w_c >= 0 with reference positions x_ref (n, 3) (used by energy/gradient only);
+    edge_pairs (k, 2) vertex ids with edge_rest (k,) > 0 lengths to keep, weight edge_weight w_e >= 0.
     """
 
     def __init__(self, topology: MeshTopology, *, defect_mask: np.ndarray, free_mask: np.ndarray,
                  planarity_weight: float = 1.0, plane_method: str = "cross", length_scale: float = 1.0,
                  closeness_weight: float = 0.0, x_ref: np.ndarray | None = None,
-                 planarity_mask: np.ndarray | None = None):
+                 planarity_mask: np.ndarray | None = None, edge_pairs: np.ndarray | None = None,
+                 edge_rest: np.ndarray | None = None, edge_weight: float = 1.0):
         if plane_method not in PLANE_METHODS:
             raise ValueError(f"unknown plane method {plane_method!r} (cross or covariance)")
         if not (length_scale > 0 and np.isfinite(length_scale)):
@@ -150,6 +162,17 @@ class EnergyModel:
             faces = np.stack([fi[t.face_offsets[ids] + j] for j in range(k)], axis=1)
             self.groups.append(_FaceGroup(faces, ids))
         self.n_faces = t.n_faces
+        self.edge_pairs = np.zeros((0, 2), np.int64) if edge_pairs is None else \
+            np.asarray(edge_pairs, dtype=np.int64).reshape(-1, 2)
+        self.edge_rest = np.zeros(0) if edge_rest is None else np.asarray(edge_rest, dtype=np.float64).reshape(-1)
+        if len(self.edge_rest) != len(self.edge_pairs):
+            raise ValueError("edge_pairs and edge_rest differ in length")
+        if len(self.edge_rest) and not np.all(np.isfinite(self.edge_rest) & (self.edge_rest > 0)):
+            raise ValueError("kept edge lengths must be finite and positive")
+        if not (np.isfinite(edge_weight) and edge_weight >= 0):
+            raise ValueError(f"edge weight must be non-negative, got {edge_weight}")
+        self.w_e = float(edge_weight)
+        self.n_edge = len(self.edge_rest)
         dof = np.full(self.n, -1, dtype=np.int64)
         dof[self.free_mask] = np.arange(int(self.free_mask.sum()))
         self.dof_of_vertex = dof
@@ -247,6 +270,15 @@ class EnergyModel:
                     p = (q - n * _dot(n, q)[:, None]) / Nlen[:, None]
                     gp = gp + self._n_adjoint(U, W, p[:, None, :])[:, 0]
                 G += _scatter3(self.n, g.faces, (w_p / L2) * gp)
+        redge = np.zeros(0)
+        if self.n_edge:
+            D, ln = self._edge_vectors(X)
+            redge = ln / self.edge_rest - 1.0
+            E += 0.5 * self.w_e * float(redge @ redge)
+            if need_grad:
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    ge = (self.w_e * redge / (self.edge_rest * ln))[:, None] * D   # d/dx_u; -ge for x_v
+                G += _scatter3(self.n, self.edge_pairs, np.stack([ge, -ge], axis=1))
         force = np.nan
         if need_grad:
             G[~self.free_mask] = 0.0
@@ -260,7 +292,11 @@ class EnergyModel:
             E += 0.5 * self.w_c / L2 * float(np.sum(D * D))
         if not np.isfinite(E) or (G is not None and not np.all(np.isfinite(G))):
             E = np.inf
-        return Evaluation(E, K, planarity, G, force)
+        return Evaluation(E, K, planarity, G, force, redge)
+
+    def _edge_vectors(self, X: np.ndarray):
+        D = X[self.edge_pairs[:, 0]] - X[self.edge_pairs[:, 1]]
+        return D, np.sqrt(_dot(D, D))
 
     def energy(self, X: np.ndarray) -> float:
         return self.evaluate(X, need_grad=False).energy
@@ -292,6 +328,14 @@ class EnergyModel:
             rows.append(r.reshape(-1))
             cols.append(c.reshape(-1))
             offset += g.m * nr
+        self._edge_row_offset = offset
+        if self.n_edge:
+            # entry order: (edge, endpoint u|v, coord)
+            r = offset + np.repeat(np.arange(self.n_edge), 6)
+            c = (np.repeat(self.edge_pairs, 3, axis=1) * 3 + np.tile(np.arange(3), 2)).reshape(-1)
+            rows.append(r)
+            cols.append(c)
+            offset += self.n_edge
         self.n_rows = offset
         rows = np.concatenate(rows) if rows else np.zeros(0, np.int64)
         cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
@@ -310,10 +354,11 @@ class EnergyModel:
 
     def residuals_and_jacobian(self, X: np.ndarray, need_jacobian: bool = True,
                                planarity_weight: float | None = None):
-        """Residual vector r (n_rows,) with ½‖r‖² = E_dev + E_plan, and J = ∂r/∂(free coordinates) (CSR).
+        """Residual vector r (n_rows,) with ½‖r‖² = E_dev + E_plan + E_edge, and J = ∂r/∂(free coordinates) (CSR).
 
         Rows: angle defects of the defect vertices, then per face group sqrt(w_p)/L times the plane
-        distances (one row per quad with the cross plane, k rows per k-gon otherwise).
+        distances (one row per quad with the cross plane, k rows per k-gon otherwise), then
+        sqrt(w_e) r_e per kept edge.
         """
         w_p = self.w_p if planarity_weight is None else float(planarity_weight)
         sw = np.sqrt(w_p) / self.L
@@ -352,6 +397,14 @@ class EnergyModel:
                 term2 = -np.einsum("mji,mci->mcj", R, GR)[..., None] * n[:, None, None, :]  # -n (r_j·G r_c)
                 Jg = base + term1 + term2
             parts_v.append(sw * Jg.reshape(-1))
+        if self.n_edge:
+            D, ln = self._edge_vectors(X)
+            se = np.sqrt(self.w_e)
+            parts_r.append(se * (ln / self.edge_rest - 1.0))
+            if need_jacobian:
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    du = (se / (self.edge_rest * ln))[:, None] * D
+                parts_v.append(np.concatenate([du, -du], axis=1).reshape(-1))
         r = np.concatenate(parts_r)
         if not need_jacobian:
             return r, None
@@ -372,7 +425,7 @@ class EnergyModel:
 
 
 def colored_fd_gradient(model: EnergyModel, X: np.ndarray, h: float | None = None) -> np.ndarray:
-    """Central finite-difference gradient of E_dev + E_plan, vectorised by vertex colouring.
+    """Central finite-difference gradient of E_dev + E_plan (+ E_edge), vectorised by vertex colouring.
 
     Vertices with disjoint stars (distance-2 colouring of the face-vertex graph) are perturbed at the
     same time; each residual then depends on at most one perturbed vertex, so per-residual differences
@@ -426,6 +479,8 @@ def _row_vertices(model: EnergyModel) -> np.ndarray:
         nr = model._planarity_rows(g)
         block = np.repeat(g.faces, nr, axis=0)
         out[off:off + g.m * nr, :g.k] = block
+    if model.n_edge:
+        out[model._edge_row_offset:model._edge_row_offset + model.n_edge, :2] = model.edge_pairs
     del rows
     return out
 

@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
-from fabkit.errors import ToleranceError
+from fabkit.errors import InputError, ToleranceError
 from fabkit.mesh import PolyMesh
 
 METHODS = ("dr", "newton", "lbfgs")
@@ -35,6 +35,11 @@ class RelaxOptions:
     max_seconds: optional wall-clock budget (None: unlimited).
     fallback: when the chosen route misses the tolerances, try the other one (Gauss–Newton from the
         input after DR / L-BFGS; DR + finish after Newton) and keep the better result.
+    edge_lengths: edges whose lengths the relaxation keeps, as `(edge_ids, lengths)` or a mapping
+        edge id -> length [m] (edge ids index `mesh.edges`); stored as a tuple of (id, length) pairs.
+        Each adds the residual r_e = (|x_u − x_v| − L_e) / L_e with weight `edge_length_weight`;
+        converged also needs max |r_e| <= `tol_edge_length`. Lets neighbouring panels keep their
+        shared boundary edges (fabkit.panels).
     """
 
     method: str = "dr"
@@ -56,6 +61,9 @@ class RelaxOptions:
     finish_below: float = 1e-2
     max_seconds: float | None = None
     fallback: bool = True
+    edge_lengths: tuple = ()
+    edge_length_weight: float = 1.0
+    tol_edge_length: float = 1e-8
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -79,6 +87,11 @@ class RelaxOptions:
         if int(self.max_iter) < 0 or int(self.newton_max_iter) < 0:
             raise ValueError("iteration limits must be >= 0")
         object.__setattr__(self, "fixed", tuple(int(i) for i in self.fixed))
+        if not (np.isfinite(self.edge_length_weight) and self.edge_length_weight > 0):
+            raise ValueError(f"edge_length_weight must be a positive number, got {self.edge_length_weight}")
+        if not (np.isfinite(self.tol_edge_length) and self.tol_edge_length > 0):
+            raise ValueError(f"tol_edge_length must be a positive number, got {self.tol_edge_length}")
+        object.__setattr__(self, "edge_lengths", normalize_edge_lengths(self.edge_lengths))
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -96,6 +109,7 @@ class IterationRecord:
     mean_planarity: float
     kinetic_energy: float  # DR only (0 elsewhere)
     energy: float
+    max_edge_length: float = 0.0  # max |r_e| over kept edges (0 when none are kept)
 
 
 @dataclass(frozen=True)
@@ -126,6 +140,7 @@ class RelaxResult:
     history: tuple[IterationRecord, ...] = field(default_factory=tuple)
     seconds: float = 0.0
     options: RelaxOptions | None = None
+    max_edge_length_error: float = 0.0  # max |(|x_u − x_v| − L_e) / L_e| over the kept edges (0: none)
 
     def raise_if_not_converged(self) -> "RelaxResult":
         if not self.converged:
@@ -150,6 +165,7 @@ class RelaxResult:
                 "force_residual": self.force_residual,
                 "max_displacement_m": self.max_displacement,
                 "mean_displacement_m": self.mean_displacement,
+                "max_edge_length_error": self.max_edge_length_error,
             },
             "history": [asdict(h) for h in self.history],
         }
@@ -158,6 +174,46 @@ class RelaxResult:
             out["final"]["face_planarity"] = self.face_planarity
             out["final"]["vertex_displacement_m"] = self.vertex_displacement
         return out
+
+
+def normalize_edge_lengths(spec) -> tuple[tuple[int, float], ...]:
+    """`(edge_ids, lengths)` or {edge id: length} -> sorted ((id, length), ...); InputError when malformed.
+
+    Ids must be distinct non-negative integers, lengths finite and > 0 (the range of the ids is
+    checked against the mesh by the Relaxer).
+    """
+    if spec is None:
+        return ()
+    if isinstance(spec, Mapping):
+        ids, lengths = list(spec.keys()), list(spec.values())
+    else:
+        spec = tuple(spec)
+        if len(spec) == 0:
+            return ()
+        if len(spec) == 2 and np.ndim(spec[0]) == 1 and np.ndim(spec[1]) == 1:
+            ids, lengths = spec
+        elif all(np.ndim(p) == 1 and len(p) == 2 for p in spec):  # already ((id, length), ...)
+            ids, lengths = [p[0] for p in spec], [p[1] for p in spec]
+        else:
+            raise InputError("edge_lengths must be (edge_ids, lengths) or a mapping edge id -> length")
+    try:
+        ids_f = np.asarray(ids, dtype=np.float64).reshape(-1)
+        lengths = np.asarray(lengths, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise InputError("edge_lengths must hold numbers (edge ids and lengths)") from None
+    if len(ids_f) != len(lengths):
+        raise InputError(f"edge_lengths has {len(ids_f)} edge ids but {len(lengths)} lengths")
+    if len(ids_f) and not np.all(np.isfinite(ids_f) & (ids_f == np.round(ids_f)) & (ids_f >= 0)):
+        raise InputError("edge_lengths: edge ids must be non-negative integers")
+    ids = ids_f.astype(np.int64)
+    bad = np.flatnonzero(~(np.isfinite(lengths) & (lengths > 0)))
+    if len(bad):
+        raise InputError(f"edge_lengths: length of edge {int(ids[bad[0]])} is {lengths[bad[0]]}, "
+                         "expected a finite positive number")
+    if len(np.unique(ids)) != len(ids):
+        raise InputError("edge_lengths: an edge id is given twice")
+    order = np.argsort(ids, kind="stable")
+    return tuple((int(ids[i]), float(lengths[i])) for i in order)
 
 
 def fixed_mask_from(mesh: PolyMesh, fixed: Sequence[int] | np.ndarray | None) -> np.ndarray:

@@ -76,12 +76,22 @@ class Relaxer:
             defect = t.interior_vertex_mask.copy()
         if not free.any():
             raise InputError("every vertex is fixed: nothing can move", source=source)
+        edge_pairs, edge_rest = None, None
+        if options.edge_lengths:
+            ids = np.array([e for e, _ in options.edge_lengths], dtype=np.int64)
+            edge_rest = np.array([length for _, length in options.edge_lengths])
+            if ids.max() >= mesh.n_edges:
+                raise InputError(f"edge_lengths: edge {int(ids.max())} does not exist (edges are "
+                                 f"0..{mesh.n_edges - 1})", source=source)
+            edge_pairs = mesh.edges[ids]   # original vertex ids are kept in the extended mesh
+        self.edge_ids = None if edge_pairs is None else ids
         self.problem_mesh = pmesh
         self.x_ref = np.array(pmesh.vertices)
         self.model = EnergyModel(pmesh.topology, defect_mask=defect, free_mask=free,
                                  planarity_weight=options.planarity_weight, plane_method=options.plane_method,
                                  length_scale=self.length_scale, closeness_weight=options.closeness,
-                                 x_ref=self.x_ref, planarity_mask=plan)
+                                 x_ref=self.x_ref, planarity_mask=plan, edge_pairs=edge_pairs,
+                                 edge_rest=edge_rest, edge_weight=options.edge_length_weight)
 
     # ------------------------------------------------------------------------------------------
     def _problem_positions(self, X0) -> np.ndarray:
@@ -105,7 +115,7 @@ class Relaxer:
     def _done(self, ev: Evaluation) -> bool:
         o = self.options
         return (ev.finite and ev.max_defect <= o.tol_defect and ev.max_planarity <= o.tol_planarity
-                and ev.force_residual <= o.tol_force)
+                and ev.force_residual <= o.tol_force and ev.max_edge_length <= o.tol_edge_length)
 
     def solve(self, X0: np.ndarray | None = None) -> RelaxResult:
         o = self.options
@@ -118,7 +128,8 @@ class Relaxer:
         def record(phase: str, ev: Evaluation, ke: float) -> None:
             counts[phase] = counts.get(phase, 0) + 1
             history.append(IterationRecord(phase, len(history) + 1, ev.max_defect, ev.mean_defect,
-                                           ev.max_planarity, ev.mean_planarity, float(ke), float(ev.energy)))
+                                           ev.max_planarity, ev.mean_planarity, float(ke), float(ev.energy),
+                                           ev.max_edge_length))
 
         def finish_switch(ev: Evaluation) -> bool:
             return ev.max_defect <= o.finish_below and ev.max_planarity <= o.finish_below
@@ -202,13 +213,20 @@ class Relaxer:
         interior = np.abs(vdef[mesh.interior_vertex_mask])
         out_def = float(interior.max()) if len(interior) else 0.0
         out_plan = float(fplan.max()) if len(fplan) else 0.0
-        if converged and (out_def > o.tol_defect or out_plan > o.tol_planarity):
+        out_edge = 0.0
+        if self.edge_ids is not None:
+            rest = np.array([length for _, length in o.edge_lengths])
+            out_edge = float(np.abs(mesh.edge_lengths[self.edge_ids] / rest - 1.0).max())
+        if converged and (out_def > o.tol_defect or out_plan > o.tol_planarity or out_edge > o.tol_edge_length):
             converged = False
         n_it = len(history)
         phases = ", ".join(statuses) if statuses else "input already within tolerance"
         measures_txt = (f"max |angle defect| {ev.max_defect:.3g} rad (tol {o.tol_defect:g}), max planarity "
                         f"{ev.max_planarity:.3g} (tol {o.tol_planarity:g}), force {ev.force_residual:.3g} "
                         f"(tol {o.tol_force:g})")
+        if self.edge_ids is not None:
+            measures_txt += (f", max edge-length error {out_edge:.3g} over {len(self.edge_ids)} kept edges "
+                             f"(tol {o.tol_edge_length:g})")
         if converged:
             message = f"converged after {n_it} iterations ({phases}): {measures_txt}"
         else:
@@ -220,7 +238,7 @@ class Relaxer:
             max_displacement=float(disp.max()) if len(disp) else 0.0,
             mean_displacement=float(disp[self.mesh.topology.used_vertex_mask].mean()) if len(disp) else 0.0,
             vertex_defect=vdef, face_planarity=fplan, vertex_displacement=disp, history=tuple(history),
-            seconds=float(seconds), options=o)
+            seconds=float(seconds), options=o, max_edge_length_error=out_edge)
 
 
 def relax(mesh: PolyMesh, options: RelaxOptions | None = None, *, fixed=None, **overrides) -> RelaxResult:
