@@ -41,6 +41,9 @@ class PanelsOptions:
     tol_defect: float = 1e-8          # relax tolerances per panel
     tol_planarity: float = 1e-8
     relax_max_iter: int = 5000
+    keep_shared_edges: bool = True    # relax each panel with its shared boundary edges kept at their
+                                      # lengths on the common input surface (neighbours then agree in 3D)
+    edge_length_weight: float = 1.0   # weight of those kept-length residuals in the relaxation
 
 
 @dataclass(frozen=True)
@@ -118,8 +121,13 @@ def panel_task(task: dict) -> dict:
     mesh = PolyMesh(task["vertices"], task["faces"], validate=False)
     out = {"id": task["id"]}
     if task.get("relax", True):
+        keep = task.get("keep_edges")
+        extra = {}
+        if keep is not None and len(keep):
+            extra = {"edge_lengths": (keep, mesh.edge_lengths[keep]),
+                     "edge_length_weight": task.get("edge_length_weight", 1.0)}
         res = relax(mesh, fixed=task["fixed"], tol_defect=task["tol_defect"], tol_planarity=task["tol_planarity"],
-                    max_iter=task["max_iter"])
+                    max_iter=task["max_iter"], **extra)
         mesh = res.mesh
         out.update(converged=bool(res.converged), message=res.message, max_defect=float(res.max_defect),
                    max_planarity=float(res.max_planarity), max_displacement=float(res.max_displacement))
@@ -167,9 +175,16 @@ def run_panels(layout: PanelLayout, options: PanelsOptions = PanelsOptions(), *,
         partner = np.arange(n)
         solve = list(range(n))
     timings: dict[str, float] = {}
+    shared_ids = [set() for _ in range(n)]
+    for pa, ea, pb, eb in layout.shared_edges:
+        shared_ids[pa].add(int(ea))
+        shared_ids[pb].add(int(eb))
     base_tasks = {p.id: {"id": p.id, "vertices": np.array(p.mesh.vertices), "faces": p.mesh.topology.face_array,
                          "fixed": np.flatnonzero(p.fixed), "tol_defect": options.tol_defect,
-                         "tol_planarity": options.tol_planarity, "max_iter": options.relax_max_iter}
+                         "tol_planarity": options.tol_planarity, "max_iter": options.relax_max_iter,
+                         "keep_edges": (np.array(sorted(shared_ids[p.id]), dtype=np.int64)
+                                        if options.keep_shared_edges else None),
+                         "edge_length_weight": options.edge_length_weight}
                   for p in panels}
     edges = [p.mesh.edges for p in panels]
     results: dict[int, dict] = {}
