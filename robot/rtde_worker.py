@@ -131,7 +131,14 @@ class _Channels:
 
 
 def _worker_main(conn, host: str) -> None:
-    """Worker process: answer requests until the pipe closes."""
+    """Worker process: answer requests until the pipe closes.
+
+    Ctrl-C reaches the whole process group; the worker ignores it so that the parent can still
+    stop the arm through it before shutting it down.
+    """
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     ch = _Channels(host)
     while True:
         try:

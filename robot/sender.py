@@ -520,6 +520,10 @@ class Sender:
             self.settle_progress()
         except WorkerError as exc:
             result.reason = f"controller link lost: {exc}"
+        except KeyboardInterrupt:  # Ctrl-C: stop the arm before giving up
+            result.reason = "interrupted"
+            result.events.append(self.stop_arm())
+            raise
         finally:
             result.last_completed = self.last_completed
             result.elapsed_s = time.monotonic() - t0

@@ -149,3 +149,32 @@ def test_toolpath_for_another_robot_model_is_refused(standin, job, tmp_path, cap
     rc, out, err, dt = send(capsys, str(other_path), "--check", str(check), "--host", standin.host)
     assert rc == 1
     assert "preflight: the controller reports robot model 'UR5', the toolpath is for ur10e" in err
+
+
+def test_ctrl_c_stops_the_arm(standin, job):
+    """Ctrl-C reaches the sender and its worker (one process group): the worker ignores it so that
+    the sender can still stop the arm, then the command exits 130."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    from _ursim import ROOT
+
+    tp, path, check = job
+    proc = subprocess.Popen([sys.executable, "-m", "fabkit", "send", str(path), "--check", str(check), "--host",
+                             standin.host], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while standin.state()["out_int"][2] & 0x7FFF < 10 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130 and "interrupted" in err
+    q1 = standin.state()["q"]
+    time.sleep(0.3)
+    assert standin.state()["q"] == q1 and standin.state()["arm_mode"] == "idle"
