@@ -172,11 +172,11 @@ def test_cli_drive_file_and_steps(pair_files, tmp_path):
 
 
 def test_readme_example_runs(tmp_path, monkeypatch):
-    """The commands in docs/readme/refold.md, as written."""
+    """The commands in docs/refold.md, as written."""
     import shlex
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parent.parent / "docs" / "readme" / "refold.md").read_text()
+    text = (Path(__file__).resolve().parent.parent / "docs" / "refold.md").read_text()
     block = text.split("```")[1]
     monkeypatch.chdir(tmp_path)
     cmds = [shlex.split(line) for line in block.strip().splitlines() if line.startswith("fabkit ")]
