@@ -7,8 +7,8 @@ from fabkit.measures import dihedral_angles
 from fabkit.mesh import PolyMesh
 from fabkit.refold import RefoldSolver
 from fabkit.refold.geometry import build_face_tree, corner_mismatch, face_transforms, vertex_positions
-from fabkit.refold.kinematics import (JacobianPattern, MinNormSolver, _qmul, _qrotate, build_vertex_loops,
-                                      loop_closure)
+from fabkit.refold.kinematics import (JacobianPattern, MinNormSolver, _chord_stalls, _qmul, _qrotate,
+                                      build_vertex_loops, loop_closure)
 from fabkit.refold.triangulate import BOUNDARY, CREASE, DIAGONAL, RULING, triangulate_panel
 from refold_panels import DEG, reflect_pair, straight_crease_pair
 
@@ -205,3 +205,13 @@ def test_solver_refuses_unknown_method():
     flat, target = reflect_pair(1, columns=4, rows=2)
     with pytest.raises(ValueError, match="unknown solver"):
         RefoldSolver(flat, target, solver="qr")
+
+
+def test_chord_refresh_rule():
+    """Keep the factorisation while chord steps are fast, or slow but nearly done; refactorise otherwise."""
+    assert not _chord_stalls(2e-7, 1e-6, 1e-12)      # contracts by 0.2
+    assert _chord_stalls(8e-7, 1e-6, 1e-12)          # by 0.8: too slow
+    assert _chord_stalls(5e-7, 1e-6, 1e-12)          # by 0.5 with 19 halvings to go
+    assert not _chord_stalls(5e-12, 1e-11, 1e-12)    # by 0.5 with 3 halvings to go
+    assert _chord_stalls(2e-6, 1e-6, 1e-12)          # growing
+    assert not _chord_stalls(0.0, 1e-6, 1e-12)

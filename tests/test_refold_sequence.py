@@ -216,13 +216,16 @@ def test_schedule_needs_two_frames_and_every_driven_hinge_in_a_step():
 
 def test_newton_chord_and_full_newton_both_meet_acceptance():
     flat, target = reflect_pair(2, columns=10, rows=3)
-    seqs = []
+    seqs, factorizations = [], []
     for chord in (True, False):
         s = RefoldSolver(flat, target, chord=chord)
         d, _ = s.driven_hinges()
         F, st = build_schedule(s.panel, flat, d, None, 6)
         seqs.append(s.solve(F, d, st))
+        factorizations.append(s.linear_solver.factorizations)
         assert_acceptance(seqs[-1])
+    # the chord steps pay off: about one factorisation per state instead of one per Newton step
+    assert factorizations[0] <= seqs[0].n_states - 1 < factorizations[1]
     # different points of the same manifold only where closure leaves freedom: close, same ends
     assert np.abs(seqs[0].angles - seqs[1].angles).max() < 1e-3
     np.testing.assert_array_equal(seqs[0].angles[[0, -1]], seqs[1].angles[[0, -1]])
