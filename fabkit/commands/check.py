@@ -35,7 +35,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--no-panel", action="store_true", help="check against the cell's obstacles only")
     parser.add_argument("--thickness", type=float, default=None, metavar="M",
                         help="sheet thickness of the panel pieces in metres (default 0.001)")
-    parser.add_argument("--render", metavar="F.png|F.mp4", help="write a picture of one waypoint or a movie")
+    parser.add_argument("--render", metavar="F.png|F.mp4", action="append", default=[],
+                        help="write a picture of one waypoint or a movie (repeat for both)")
     parser.add_argument("--waypoint", type=int, metavar="K", help="waypoint to render (PNG)")
     parser.add_argument("--size", default="640x480", metavar="WxH", help="render size (default 640x480)")
     parser.add_argument("--frames", type=int, default=240, metavar="N",
@@ -57,12 +58,13 @@ def _size(text: str) -> tuple[int, int]:
 def run(args) -> int:
     import os
 
-    render = Path(args.render) if args.render else None
-    if render is not None:
+    renders = [Path(r) for r in args.render]
+    for render in renders:
         if render.suffix.lower() not in (".png", ".mp4"):
             raise InputError("must end in .png or .mp4", source="--render")
         if render.resolve() == Path(args.output).resolve():
             raise InputError("would overwrite the check report", source="--render")
+    if renders:
         size = _size(args.size)
         from sim.render import select_gl_backend  # before anything imports mujoco
 
@@ -114,16 +116,16 @@ def run(args) -> int:
 
     if not args.quiet:
         _summary(args, report, elapsed, fold_path)
-    rendered = None
-    if render is not None:
-        rendered = _render(args, render, size, cell, panel, prog, dense, report)
+    rendered = [_render(args, render, size, cell, panel, prog, dense, report) for render in renders]
+    rendered = rendered[0] if len(rendered) == 1 else (rendered or None)
     write_report(args, {"command": "check", "toolpath": str(args.toolpath), "cell": str(args.cell),
                         "fold": None if fold_path is None else str(fold_path), "output": str(out),
                         "ok": report.ok, "problems": len(report.problems), "waypoints": report.waypoints,
                         "configs_checked": report.configs_checked, "check_seconds": elapsed,
                         "configs_per_second": report.configs_checked / elapsed if elapsed > 0 else None,
                         "min_clearance_m": report.min_clearance_m, "cycle_time_s": report.cycle_time_s,
-                        "toolpath_sha256": report.toolpath_sha256, "render": rendered})
+                        "toolpath_sha256": report.toolpath_sha256, "render": rendered,
+                        "clearance_window_m": report.clearance_window_m})
     if args.view:
         from sim.model import build_cell_model
         from sim.render import view

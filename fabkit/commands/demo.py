@@ -174,7 +174,7 @@ def run(args) -> int:
         Stage("toolpath", ["toolpath", p("fold.fold"), "--cell", args.cell, "-o", p("path.json"),
                            "--script", p("program.script")]),
         Stage("check", ["check", p("path.json"), "--cell", args.cell, "-o", p("check.json"),
-                        *([] if args.no_render else ["--render", p("check.png")])]),
+                        *([] if args.no_render else ["--render", p("check.png"), "--render", p("check.mp4")])]),
     ]
     t_all = time.perf_counter()
     failed_upstream = False

@@ -211,6 +211,9 @@ def write_report_html(out: Path, summary: dict) -> Path:
     figures = [f for f in figures if f]
     parts.append("<h2>Plots and renders</h2>")
     parts.append("".join(figures) if figures else "<p class='muted'>no plots yet</p>")
+    if (out / "check.mp4").exists():  # a local file next to the page: no network
+        parts.append("<figure><video controls muted loop width='520' src='check.mp4'></video>"
+                     "<figcaption>the whole program in the MuJoCo cell (check.mp4)</figcaption></figure>")
 
     parts.append("<h2>Numbers per stage</h2>")
     for s in stages:
