@@ -43,6 +43,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                    help="worker processes (default: one per CPU; 1 runs in-process)")
     p.add_argument("--scheduler", metavar="ADDR", help="dask.distributed scheduler address (instead of --jobs)")
+    p.add_argument("--free-shared-edges", action="store_true",
+                   help="relax panels without keeping their shared boundary edges at the surface's lengths "
+                        "(the paper's original scheme: neighbours then disagree and the merge absorbs it)")
     p.add_argument("--no-cut-files", action="store_true", help="skip the DXF/SVG cut files")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     add_common(p)
@@ -86,7 +89,8 @@ def run(args) -> int:
     surface, lowpoly = load_surface(args.surface, args.levels)
     layout = layout_panels(surface, rows=args.rows, cols=args.cols, columns_per_panel=args.columns_per_panel)
     options = PanelsOptions(tol_congruency=args.tolerance, tol_unfold=args.unfold_tolerance,
-                            max_rounds=args.max_rounds, symmetric=args.symmetric)
+                            max_rounds=args.max_rounds, symmetric=args.symmetric,
+                            keep_shared_edges=not args.free_shared_edges)
     n_tasks = len(layout.panels) // (2 if args.symmetric else 1)
     with progress(args, "panels", total=n_tasks * (1 + args.max_rounds)) as advance:
         result = run_panels(layout, options, jobs=args.jobs, scheduler=args.scheduler, progress=advance)
