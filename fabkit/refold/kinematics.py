@@ -197,7 +197,8 @@ class MinNormSolver:
 
     "direct": x = C^T y with (C C^T + mu I) y = b, a sparse LU of C C^T (SuperLU in symmetric mode
     with a minimum-degree ordering); mu = 1e-13 * max diag only guards the rank deficiency of the
-    flat state. `solve(C, b, reuse=True)` uses the last factorised C and its LU instead (the chord
+    flat state. When C has more rows than columns (planar quads held flat, see `RefoldSolver`) the
+    smaller (C^T C + mu I) x = C^T b is factorised instead: the same pseudo-inverse solution. `solve(C, b, reuse=True)` uses the last factorised C and its LU instead (the chord
     step of `project_to_constraints`: an exact right inverse of that C). "lsmr": scipy's LSMR from x0 = 0 (its iterates stay
     in the row space of C, so it returns the minimum-norm solution); exact but slow on large panels
     for the same conditioning reason. "dense": numpy's pinv, the baseline.
@@ -216,8 +217,8 @@ class MinNormSolver:
         if reuse:
             if self.method != "direct" or self._kept is None:
                 raise ValueError("no kept factorisation to reuse")
-            C0, lu = self._kept
-            return C0.T @ lu.solve(b)
+            C0, lu, tall = self._kept
+            return lu.solve(C0.T @ b) if tall else C0.T @ lu.solve(b)
         if C.shape[1] == 0:
             return np.zeros(0)
         if self.method == "lsmr":
@@ -227,12 +228,13 @@ class MinNormSolver:
         self.factorizations += 1
         if self.method == "dense":
             return np.linalg.pinv(C.toarray(), rcond=1e-12) @ b
-        CCt = (C @ C.T).tocsc()
-        scale = float(CCt.diagonal().max()) if CCt.nnz else 1.0
-        CCt = CCt + sp.identity(CCt.shape[0], format="csc") * (1e-13 * max(scale, 1e-300))
-        lu = spla.splu(CCt, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
-        self._kept = (C, lu)
-        return C.T @ lu.solve(b)
+        tall = C.shape[0] > C.shape[1]  # more equations than unknowns: the smaller normal matrix is C^T C
+        N = ((C.T @ C) if tall else (C @ C.T)).tocsc()
+        scale = float(N.diagonal().max()) if N.nnz else 1.0
+        N = N + sp.identity(N.shape[0], format="csc") * (1e-13 * max(scale, 1e-300))
+        lu = spla.splu(N, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+        self._kept = (C, lu, tall)
+        return lu.solve(C.T @ b) if tall else C.T @ lu.solve(b)
 
 
 def _chord_stalls(res: float, prev: float, tol: float) -> bool:
@@ -276,6 +278,8 @@ def project_to_constraints(loops: VertexLoops, rho_start: np.ndarray, rho_ref: n
     r, omega, res = evaluate(rho, True)
     if not np.isfinite(res):
         return done(False, float("nan"), 0)
+    if len(free) == 0:  # every hinge is held: nothing to solve for
+        return done(res <= tol, res, 0)
     its = 0
     refresh = False
     while True:
