@@ -215,3 +215,26 @@ def test_chord_refresh_rule():
     assert not _chord_stalls(5e-12, 1e-11, 1e-12)    # by 0.5 with 3 halvings to go
     assert _chord_stalls(2e-6, 1e-6, 1e-12)          # growing
     assert not _chord_stalls(0.0, 1e-6, 1e-12)
+
+
+def test_direct_solver_on_a_tall_jacobian_is_the_pseudo_inverse(rng):
+    """More equations than unknowns (diagonals held): C^T C is factorised; same answer as numpy's pinv."""
+    flat, target = reflect_pair(2, columns=6, rows=2)
+    p = triangulate_panel(flat)
+    loops = build_vertex_loops(p.topology, flat.vertices)
+    rho = 0.5 * dihedral_angles(PolyMesh(target.vertices, topology=p.topology, validate=False))
+    _, omega = loop_closure(loops, rho)
+    quad_edges = np.flatnonzero(p.hinge_mask & (p.edge_kind != DIAGONAL))
+    C = JacobianPattern(loops, quad_edges).matrix(omega)
+    assert C.shape[0] > C.shape[1]
+    A = C.toarray()
+    for b in (C @ rng.normal(size=C.shape[1]), rng.normal(size=C.shape[0])):  # consistent, then not
+        solver = MinNormSolver("direct")
+        x = solver.solve(C, b)
+        xp = np.linalg.pinv(A, rcond=1e-12) @ b
+        # the 1e-13 regularisation shifts the answer by ~mu / sigma_min^2 (7e-7 here: cond(C) = 2.7e3)
+        assert np.linalg.norm(x - xp) <= 1e-6 * np.linalg.norm(xp)
+        assert np.abs(A.T @ (A @ x - b)).max() <= 1e-9 * np.abs(A.T @ b).max()  # least squares
+        np.testing.assert_allclose(solver.solve(None, b, reuse=True), x, rtol=0, atol=1e-12 * np.abs(x).max())
+    b = C @ rng.normal(size=C.shape[1])
+    np.testing.assert_allclose(A @ MinNormSolver("direct").solve(C, b), b, atol=1e-9)  # consistent: solved

@@ -9,7 +9,7 @@ from fabkit.errors import InputError
 from fabkit.mesh import PolyMesh
 from fabkit.refold import NotAFoldError, RefoldSolver, refold
 from fabkit.refold.sequence import build_schedule, load_drive_file, middle_row_hinges
-from fabkit.refold.triangulate import CREASE
+from fabkit.refold.triangulate import CREASE, DIAGONAL
 from refold_panels import DEG, reflect_pair, straight_crease_pair
 
 TOL_STATE = 1e-9     # loop residual [rad] and relative edge-length error at every state
@@ -243,3 +243,24 @@ def test_strip_steps_fold_the_creases_bounding_each_strip_in_order():
     np.testing.assert_array_equal(seq.angles[:4, second], 0.0)
     np.testing.assert_allclose(seq.angles[4:, second] / seq.target_angles[second], [[1 / 3], [2 / 3], [1.0]],
                                atol=1e-14)
+
+
+def test_planar_quads_stay_planar_and_freeing_their_diagonals_also_folds():
+    flat, target = reflect_pair(2, columns=10, rows=3)
+    seqs = {}
+    for hold in (True, False):
+        s = RefoldSolver(flat, target, hold_planar_quads=hold)
+        diagonals = np.flatnonzero(s.panel.edge_kind == DIAGONAL)
+        assert len(s.held) == (len(diagonals) if hold else 0)
+        d, _ = s.driven_hinges()
+        F, st = build_schedule(s.panel, flat, d, None, 6)
+        seqs[hold] = seq = s.solve(F, d, st)
+        assert_acceptance(seq)
+        assert not seq.notes
+    held, free = seqs[True], seqs[False]
+    # held: every diagonal sits exactly at its scheduled angle (a fraction of ~1e-15), i.e. the quads stay planar
+    np.testing.assert_array_equal(held.angles[:, diagonals], (held.fractions * held.target_angles)[:, diagonals])
+    assert np.abs(held.angles[:, diagonals]).max() < 1e-13
+    # free: the minimum-norm steps bend the quads a little on the way, and both end exactly at the target
+    assert np.abs(free.angles[:, diagonals]).max() > 1e-8
+    np.testing.assert_array_equal(held.angles[-1], free.angles[-1])
