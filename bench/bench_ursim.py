@@ -24,28 +24,15 @@ from pathlib import Path
 import numpy as np
 
 from bench.common import report
+from fabkit.commands._dryrun import free_loopback_address
 
 ROOT = Path(__file__).resolve().parents[1]
 SECONDS = 10.0
-PORTS = (30004, 29999, 30001, 30002, 30003, 30020)
 
 
 def _free_host() -> str:
     """A 127.0.0.x (x in 180-250) with every stand-in port free right now."""
-    for x in range(180, 251):
-        host, socks = f"127.0.0.{x}", []
-        try:
-            for port in PORTS:
-                sk = socket.socket()
-                socks.append(sk)
-                sk.bind((host, port))
-            return host
-        except OSError:
-            continue
-        finally:
-            for sk in socks:
-                sk.close()
-    raise RuntimeError("no free loopback address for the stand-in")
+    return free_loopback_address(first=180, last=251)
 
 
 def _cpu_seconds(pid: int) -> float:

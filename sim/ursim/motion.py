@@ -26,6 +26,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from robot import kinematics as K
+from robot.cell import matrix_to_pose, pose_to_matrix  # noqa: F401 (re-exported for the stand-in)
 
 #: Knot spacing of Cartesian runs for IK: metres of TCP travel and radians of tool rotation.
 KNOT_STEP_M = 0.004
@@ -71,21 +72,6 @@ class Trajectory:
     @property
     def duration(self) -> float:
         return (len(self.q) - 1) * self.dt
-
-
-def pose_to_matrix(pose) -> np.ndarray:
-    p = np.asarray(pose, dtype=np.float64).reshape(6)
-    T = np.eye(4)
-    T[:3, :3] = Rotation.from_rotvec(p[3:]).as_matrix()
-    T[:3, 3] = p[:3]
-    return T
-
-
-def matrix_to_pose(T: np.ndarray) -> np.ndarray:
-    T = np.asarray(T, dtype=np.float64)
-    if T.ndim == 3:
-        return np.concatenate([T[:, :3, 3], Rotation.from_matrix(T[:, :3, :3]).as_rotvec()], axis=1)
-    return np.concatenate([T[:3, 3], Rotation.from_matrix(T[:3, :3]).as_rotvec()])
 
 
 # ---- time parametrisation ----------------------------------------------------------------------
