@@ -238,3 +238,33 @@ def test_direct_solver_on_a_tall_jacobian_is_the_pseudo_inverse(rng):
         np.testing.assert_allclose(solver.solve(None, b, reuse=True), x, rtol=0, atol=1e-12 * np.abs(x).max())
     b = C @ rng.normal(size=C.shape[1])
     np.testing.assert_allclose(A @ MinNormSolver("direct").solve(C, b), b, atol=1e-9)  # consistent: solved
+
+
+def test_loop_closure_with_mixed_valences_matches_scipy(rng):
+    """Union-jack triangulation of a 4 x 4 grid: interior valences 4 and 8, so the loops are padded."""
+    n = 5
+    V = np.array([[i, j, 0.0] for j in range(n) for i in range(n)], float)
+    tris = []
+    for j in range(n - 1):
+        for i in range(n - 1):
+            a, b, c, d = j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i
+            tris += [[a, b, c], [a, c, d]] if (i + j) % 2 == 0 else [[a, b, d], [b, c, d]]
+    mesh = PolyMesh(V, tris)
+    loops = build_vertex_loops(mesh.topology, V)
+    valence = (loops.edge >= 0).sum(axis=1)
+    assert set(valence.tolist()) == {4, 8}
+    rho = rng.normal(scale=0.6, size=mesh.topology.n_edges)
+    r, omega = loop_closure(loops, rho)
+    for i in range(loops.n_loops):
+        np.testing.assert_allclose(r[i], _closure_reference(loops, rho, i), atol=1e-13)
+    # at the flat state every loop closes, so omega is the exact derivative there (padded slots skipped)
+    zero = np.zeros_like(rho)
+    _, omega = loop_closure(loops, zero)
+    h = 1e-6
+    for i in range(loops.n_loops):
+        for k in range(valence[i]):
+            e = loops.edge[i, k]
+            up, dn = zero.copy(), zero.copy()
+            up[e], dn[e] = h, -h
+            fd = (loop_closure(loops, up, jacobian=False)[0][i] - loop_closure(loops, dn, jacobian=False)[0][i]) / (2 * h)
+            np.testing.assert_allclose(omega[i, k], fd, atol=1e-8)

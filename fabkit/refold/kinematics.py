@@ -59,6 +59,13 @@ class VertexLoops:
     axis: np.ndarray
     n_edges: int
 
+    def __post_init__(self):
+        # step-major copies for `loop_closure`: contiguous (3, k, nv) axes, (k, nv) edge ids and padding
+        object.__setattr__(self, "_axis_t", np.ascontiguousarray(self.axis.transpose(2, 1, 0)))
+        object.__setattr__(self, "_edge_t", np.ascontiguousarray(np.maximum(self.edge, 0).T))
+        pad = np.ascontiguousarray((self.edge < 0).T)
+        object.__setattr__(self, "_pad_t", pad if pad.any() else None)
+
     @property
     def n_loops(self) -> int:
         return len(self.vertices)
@@ -131,13 +138,17 @@ def loop_closure(loops: VertexLoops, rho: np.ndarray, *, jacobian: bool = True):
     nv, kmax = loops.edge.shape
     if nv == 0:
         return np.zeros((0, 3)), np.zeros((0, kmax, 3))
-    ax = loops.axis.transpose(2, 1, 0)                                  # (3, k, nv)
-    half = np.where(loops.edge.T >= 0, np.asarray(rho)[np.maximum(loops.edge, 0)].T, 0.0) * 0.5  # (k, nv)
+    ax = loops._axis_t                                  # (3, k, nv)
+    half = np.asarray(rho)[loops._edge_t] * 0.5         # (k, nv)
+    if loops._pad_t is not None:
+        half[loops._pad_t] = 0.0
     sin, cos = np.sin(half), np.cos(half)
     bx, by, bz = ax[0] * sin, ax[1] * sin, ax[2] * sin  # exp map of every step (axis unit, or 0 for padding)
-    x, y, z, w = np.zeros(nv), np.zeros(nv), np.zeros(nv), np.ones(nv)
     omega = np.empty((nv, kmax, 3)) if jacobian else None
-    for k in range(kmax):
+    if jacobian:
+        omega[:, 0] = ax[:, 0].T
+    x, y, z, w = bx[0], by[0], bz[0], cos[0]            # the identity times step 0
+    for k in range(1, kmax):
         if jacobian:  # omega_k = acc rotating a_k: v + 2w (u x v) + u x (2 u x v)
             vx, vy, vz = ax[0, k], ax[1, k], ax[2, k]
             tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
