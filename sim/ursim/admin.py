@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import json
 import socket
-import threading
 import time
+
+from sim.ursim.lines import serve_lines
 
 FAULTS = ("protective_stop", "estop", "estop_release", "program_stop", "drop_rtde", "stall", "slow", "normal")
 
@@ -101,31 +102,8 @@ def handle(ctrl, line: str, shutdown) -> dict:
 
 
 def serve_admin(ctrl, listener: socket.socket, shutdown) -> None:
-    def client(sock: socket.socket) -> None:
-        buf = b""
-        with sock:
-            while not ctrl.stopped:
-                try:
-                    data = sock.recv(4096)
-                except OSError:
-                    return
-                if not data:
-                    return
-                buf += data
-                while b"\n" in buf:
-                    line, buf = buf.split(b"\n", 1)
-                    reply = handle(ctrl, line.decode("utf-8", "replace").strip(), shutdown)
-                    try:
-                        sock.sendall((json.dumps(reply) + "\n").encode())
-                    except OSError:
-                        return
-
-    while not ctrl.stopped:
-        try:
-            sock, _ = listener.accept()
-        except OSError:
-            return
-        threading.Thread(target=client, args=(sock,), name="admin", daemon=True).start()
+    """Answer admin commands, one JSON reply per line."""
+    serve_lines(ctrl, listener, "admin", lambda text: (json.dumps(handle(ctrl, text, shutdown)), False))
 
 
 def admin_request(host: str, line: str, port: int = 30020, timeout: float = 5.0) -> dict:

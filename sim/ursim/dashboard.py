@@ -8,9 +8,10 @@ name next to it) in the programs directory given at start-up.
 from __future__ import annotations
 
 import socket
-import threading
 import time
 from pathlib import Path
+
+from sim.ursim.lines import serve_lines
 
 from sim.ursim.controller import (ROBOT_IDLE, ROBOT_MODES, ROBOT_POWER_OFF, ROBOT_RUNNING, RUNTIME_PAUSED,
                                   RUNTIME_PLAYING, SAFETY_MODES)
@@ -136,37 +137,14 @@ def _play(ctrl, programs_dir: Path | None) -> str:
 
 
 def serve_dashboard(ctrl, listener: socket.socket, programs_dir: Path | None = None) -> None:
-    def client(sock: socket.socket) -> None:
-        with sock:
-            sock.sendall((BANNER + "\n").encode())
-            buf = b""
-            while not ctrl.stopped:
-                try:
-                    data = sock.recv(4096)
-                except OSError:
-                    return
-                if not data:
-                    return
-                buf += data
-                while b"\n" in buf:
-                    line, buf = buf.split(b"\n", 1)
-                    text = line.decode("utf-8", "replace").strip()
-                    if not text:
-                        continue
-                    reply = handle_command(ctrl, text, programs_dir)
-                    ctrl.log(f"dashboard: {text!r} -> {reply!r}")
-                    if ctrl.reply_delay:
-                        time.sleep(ctrl.reply_delay)
-                    try:
-                        sock.sendall((reply + "\n").encode())
-                    except OSError:
-                        return
-                    if text.lower() == "quit":
-                        return
+    """Answer dashboard commands with the controller's replies; `quit` ends the client."""
+    def answer(text: str) -> tuple[str | None, bool]:
+        if not text:
+            return None, False
+        reply = handle_command(ctrl, text, programs_dir)
+        ctrl.log(f"dashboard: {text!r} -> {reply!r}")
+        if ctrl.reply_delay:
+            time.sleep(ctrl.reply_delay)
+        return reply, text.lower() == "quit"
 
-    while not ctrl.stopped:
-        try:
-            sock, _ = listener.accept()
-        except OSError:
-            return
-        threading.Thread(target=client, args=(sock,), name="dashboard", daemon=True).start()
+    serve_lines(ctrl, listener, "dashboard", answer, banner=BANNER)
