@@ -202,3 +202,24 @@ def move_to(host: str, q, *, timeout: float = 30.0) -> None:
         ctrl.stopScript()
     finally:
         ctrl.disconnect()
+
+
+def standin_fixture(*args: str, unlock_delay: str = "0.2", external_ok: bool = False):
+    """A module-scoped pytest fixture that runs one stand-in (`StandIn(*args)`) and always stops it.
+
+    external_ok: with FABKIT_UR_HOST set, the fixture yields None (the tests then use that host).
+    """
+    import pytest
+
+    @pytest.fixture(scope="module")
+    def standin(tmp_path_factory):
+        if external_ok and external_host():
+            yield None
+            return
+        s = StandIn(*args, "--unlock-delay", unlock_delay, log=tmp_path_factory.mktemp("ursim") / "ursim.log")
+        try:
+            yield s
+        finally:
+            s.stop()
+
+    return standin

@@ -11,21 +11,14 @@ import time
 import numpy as np
 import pytest
 
-from _ursim import CELL, ROOT, StandIn, demo_toolpath, external_host, move_to, write_job
+from _ursim import CELL, ROOT, demo_toolpath, external_host, move_to, write_job, standin_fixture
 from fabkit.cli import main as fabkit_main
 
 pytestmark = pytest.mark.network
 needs_standin = pytest.mark.skipif(external_host() is not None, reason="fault injection needs the stand-in")
 
 
-@pytest.fixture(scope="module")
-def standin(tmp_path_factory):
-    if external_host():
-        yield None
-        return
-    s = StandIn("--cell", str(CELL), "--unlock-delay", "1", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
-    yield s
-    s.stop()
+standin = standin_fixture("--cell", str(CELL), unlock_delay="1", external_ok=True)
 
 
 def run_fabkit(capsys, *args):

@@ -9,18 +9,14 @@ import time
 import numpy as np
 import pytest
 
-from _ursim import CELL, StandIn, demo_toolpath, external_host, free_loopback_hosts, move_to, write_job
+from _ursim import CELL, demo_toolpath, external_host, free_loopback_hosts, move_to, write_job, standin_fixture
 from fabkit.cli import main as fabkit_main
 
 pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not None,
                                                       reason="fault injection needs the stand-in")]
 
 
-@pytest.fixture(scope="module")
-def standin(tmp_path_factory):
-    s = StandIn("--cell", str(CELL), "--unlock-delay", "0.2", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
-    yield s
-    s.stop()
+standin = standin_fixture("--cell", str(CELL), unlock_delay="0.2")
 
 
 @pytest.fixture(scope="module")

@@ -6,18 +6,14 @@ import time
 import numpy as np
 import pytest
 
-from _ursim import CELL, StandIn, external_host
+from _ursim import CELL, external_host, standin_fixture
 from fabkit.cli import main as fabkit_main
 
 pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not None,
                                                       reason="needs the stand-in")]
 
 
-@pytest.fixture(scope="module")
-def standin(tmp_path_factory):
-    s = StandIn("--cell", str(CELL), "--unlock-delay", "0.2", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
-    yield s
-    s.stop()
+standin = standin_fixture("--cell", str(CELL), unlock_delay="0.2")
 
 
 @pytest.fixture(scope="module")

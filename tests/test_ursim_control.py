@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from _ursim import StandIn, external_host
+from _ursim import external_host, standin_fixture
 from robot import kinematics as K
 from sim.ursim.motion import matrix_to_pose, pose_to_matrix
 
@@ -15,14 +15,7 @@ pytestmark = pytest.mark.network
 needs_standin = pytest.mark.skipif(external_host() is not None, reason="fault injection needs the stand-in")
 
 
-@pytest.fixture(scope="module")
-def standin(tmp_path_factory):
-    if external_host():
-        yield None
-        return
-    s = StandIn("--unlock-delay", "0.5", log=tmp_path_factory.mktemp("ursim") / "ursim.log")
-    yield s
-    s.stop()
+standin = standin_fixture(unlock_delay="0.5", external_ok=True)
 
 
 @pytest.fixture(scope="module")
