@@ -38,6 +38,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from fabkit.errors import FabkitError, InputError
+from fabkit.io.jsonfile import load_json
 from robot import kinematics as K
 from robot.cell import Cell, matrix_to_pose, pose_to_matrix
 from robot.motion import (MotionParams, blend_overlaps, blend_radii, cycle_time, joint_speed_estimates,
@@ -153,13 +154,7 @@ class Toolpath:
 
     @classmethod
     def load(cls, path: str | Path) -> "Toolpath":
-        path = Path(path)
-        try:
-            d = json.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise InputError("toolpath file not found", source=str(path)) from None
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise InputError(f"not a JSON toolpath: {exc}", source=str(path)) from None
+        d = load_json(path, "JSON toolpath", missing="toolpath file not found")
         return cls.from_json(d, source=str(path))
 
 

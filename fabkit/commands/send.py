@@ -44,13 +44,9 @@ def add_arguments(parser) -> None:
 
 
 def _load_check(path: str, sha: str) -> dict:
-    try:
-        with open(path, encoding="utf-8") as fh:
-            check = json.load(fh)
-    except FileNotFoundError:
-        raise InputError("check report not found", source=path) from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"not a JSON check report: {exc}", source=path) from None
+    from fabkit.io.jsonfile import load_json
+
+    check = load_json(path, "JSON check report", missing="check report not found")
     if not isinstance(check, dict) or check.get("format") != "fabkit.check/1":
         raise InputError("not a fabkit.check/1 report", source=path)
     if not isinstance(check.get("ok"), bool):

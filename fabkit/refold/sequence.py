@@ -12,7 +12,6 @@ free hinge follows the mean of the driven fractions.
 """
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass, field
 
@@ -158,14 +157,10 @@ def load_drive_file(path: str | os.PathLike, flat: PolyMesh, panel: Triangulated
     Accepted: a list of edge refs (driven, one step); a list of lists (steps in order; driven = all);
     or an object {"drive": [...], "steps": [[...], ...]} (either key optional).
     """
+    from fabkit.io.jsonfile import load_json
+
     source = str(path)
-    try:
-        with open(path, encoding="utf-8") as fh:
-            data = json.load(fh)
-    except FileNotFoundError:
-        raise InputError("file not found", source=source) from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"not a readable JSON file ({exc})", source=source) from None
+    data = load_json(path, "readable JSON file", missing="file not found")
     drive_refs, step_refs = None, None
     if isinstance(data, dict):
         unknown = set(data) - {"drive", "steps"}
