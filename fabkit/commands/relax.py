@@ -21,6 +21,7 @@ examples:
   fabkit relax panel.obj -o relaxed.obj --report relax.json
   fabkit relax panel.obj -o relaxed.obj --boundary row-in-plane --tol-defect 1e-6
   fabkit relax panel.obj -o relaxed.obj --method newton --closeness 1 --fixed 0,12
+  fabkit relax scanned.obj -o relaxed.obj --crease-fairness 10
 """
 
 
@@ -61,6 +62,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"stage-1 threshold on max |defect| (default {d.stage_defect:g})")
     p.add_argument("--closeness", type=float, default=d.closeness,
                    help="weight pulling toward the input positions (default 0)")
+    p.add_argument("--crease-fairness", type=float, default=d.crease_fairness, metavar="W",
+                   help="after converging, smooth the crease curves with weight W while keeping the "
+                        "tolerances (0: off; try 10; docs/relax.md 'Crease fairing')")
     p.add_argument("--planarity-weight", type=float, default=d.planarity_weight,
                    help=f"planarity weight w_p (default {d.planarity_weight:g})")
     p.add_argument("--plane", choices=("cross", "covariance"), default=d.plane_method,
@@ -86,7 +90,7 @@ def run(args) -> int:
             boundary=args.boundary, row_width=args.row_width, fixed=tuple(args.fixed), stage=args.stage,
             stage_defect=args.stage_defect, closeness=args.closeness, planarity_weight=args.planarity_weight,
             plane_method=args.plane, damping=args.damping, finish=not args.no_finish,
-            fallback=not args.no_fallback, max_seconds=args.max_seconds)
+            fallback=not args.no_fallback, max_seconds=args.max_seconds, crease_fairness=args.crease_fairness)
     except ValueError as exc:
         raise InputError(str(exc), source="options") from None
     solver = Relaxer(mesh, options, source=str(args.input))

@@ -40,6 +40,11 @@ class RelaxOptions:
         Each adds the residual r_e = (|x_u − x_v| − L_e) / L_e with weight `edge_length_weight`;
         converged also needs max |r_e| <= `tol_edge_length`. Lets neighbouring panels keep their
         shared boundary edges (fabkit.panels).
+    crease_fairness: weight w of the crease-fairing phase (0: off; 10 is a good start). After the
+        relaxation converges, among the panels that meet the tolerances the one closest to the
+        input with the smoothest crease curves (third differences) is sought (fabkit.relax.fairing).
+        Removes the noise a least-squares relaxation leaves in the creases and thus in the fold
+        angles; creases come from face_data "strip" or, untagged, edges folded by more than 5°.
     """
 
     method: str = "dr"
@@ -64,6 +69,7 @@ class RelaxOptions:
     edge_lengths: tuple = ()
     edge_length_weight: float = 1.0
     tol_edge_length: float = 1e-8
+    crease_fairness: float = 0.0
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -76,7 +82,7 @@ class RelaxOptions:
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v}")
-        for name in ("closeness", "planarity_weight", "stage_defect", "finish_below"):
+        for name in ("closeness", "planarity_weight", "stage_defect", "finish_below", "crease_fairness"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a non-negative number, got {v}")
@@ -101,7 +107,7 @@ class RelaxOptions:
 class IterationRecord:
     """One line of the convergence history."""
 
-    phase: str            # "dr", "dr-stage1", "lbfgs", "newton"
+    phase: str            # "dr", "dr-stage1", "lbfgs", "newton", "fair"
     iteration: int        # running count over all phases
     max_defect: float
     mean_defect: float

@@ -5,6 +5,7 @@ import dataclasses
 import time
 
 import numpy as np
+import scipy.sparse as sp
 
 from fabkit import measures
 from fabkit.errors import InputError
@@ -12,6 +13,7 @@ from fabkit.mesh import PolyMesh
 from fabkit.relax.boundary import ROW_KINDS, ExtendedMesh, add_boundary_row
 from fabkit.relax.dynamic import PhaseOutcome, dynamic_relaxation
 from fabkit.relax.energy import EnergyModel, Evaluation
+from fabkit.relax.fairing import crease_chains, fair_creases, third_differences
 from fabkit.relax.lbfgs import lbfgs
 from fabkit.relax.newton import gauss_newton
 from fabkit.relax.options import IterationRecord, RelaxOptions, RelaxResult, fixed_mask_from
@@ -85,6 +87,11 @@ class Relaxer:
                                  f"0..{mesh.n_edges - 1})", source=source)
             edge_pairs = mesh.edges[ids]   # original vertex ids are kept in the extended mesh
         self.edge_ids = None if edge_pairs is None else ids
+        self.fairness_operator = None
+        if options.crease_fairness > 0:
+            D = third_differences(crease_chains(mesh), mesh.n_vertices)
+            pad = pmesh.n_vertices - mesh.n_vertices   # boundary-row vertices come after the mesh's own
+            self.fairness_operator = sp.hstack([D, sp.csr_matrix((D.shape[0], pad))], format="csr") if pad else D
         self.problem_mesh = pmesh
         self.x_ref = np.array(pmesh.vertices)
         self.model = EnergyModel(pmesh.topology, defect_mask=defect, free_mask=free,
@@ -178,12 +185,32 @@ class Relaxer:
                     alt = self._newton(X, record, deadline)
                     statuses.append(f"fallback Newton from the input {alt.status}")
                 out = self._better(out, alt)
+        if o.crease_fairness > 0 and self._done(out.evaluation):
+            out = self._fair(out, record, deadline, statuses)
         return self._result(out, history, counts, statuses, time.perf_counter() - t0)
 
     def _newton(self, X: np.ndarray, record, deadline) -> PhaseOutcome:
         o = self.options
         return gauss_newton(self.model, X, max_iter=int(o.newton_max_iter), done=self._done, x_ref=self.x_ref,
                             closeness=o.closeness, record=record, deadline=deadline)
+
+    def _fair(self, out: PhaseOutcome, record, deadline, statuses: list[str]) -> PhaseOutcome:
+        """Crease fairing from a converged outcome; keeps `out` unless the faired panel also converges."""
+        D = self.fairness_operator
+        if D is None or D.shape[0] == 0:
+            statuses.append("crease fairing skipped: no crease of 4 or more vertices (no strip tags, no edge "
+                            "folded by more than 5 degrees)")
+            return out
+        fair = fair_creases(self.model, out.X, self.x_ref, D, self.options.crease_fairness, record=record,
+                            deadline=deadline)
+        statuses.append(f"crease fairing {fair.status} ({fair.iterations} steps)")
+        if not self._done(fair.evaluation) and fair.evaluation.finite:
+            fair = self._newton(fair.X, record, deadline)
+            statuses.append(f"Newton {fair.status}")
+        if self._done(fair.evaluation):
+            return PhaseOutcome(fair.X, fair.evaluation, out.iterations + fair.iterations, "converged")
+        statuses.append("faired panel missed the tolerances: kept the unfaired result")
+        return out
 
     def _better(self, a: PhaseOutcome, b: PhaseOutcome) -> PhaseOutcome:
         """The converged one, else the finite one with the lower energy (a: the earlier outcome)."""
