@@ -121,7 +121,7 @@ class _Extended:
 
 
 def fair_creases(model: EnergyModel, X0: np.ndarray, X_ref: np.ndarray, D: sp.csr_matrix, weight: float, *,
-                 max_iter: int = 30, step_tol: float = 1e-7, stall_gain: float = 1e-3, stall_after: int = 2,
+                 max_iter: int = 30, step_tol: float = 1e-7, stall_gain: float = 1e-3, stall_after: int = 2, cycle_after: int = 6, feasible: float = 1e-6,
                  max_violation: float = 1e-3, record: Callable[[str, Evaluation, float], None] | None = None,
                  deadline: float | None = None) -> PhaseOutcome:
     """SQP on F subject to the relaxation residuals, from X0 (see module docstring).
@@ -135,7 +135,8 @@ def fair_creases(model: EnergyModel, X0: np.ndarray, X_ref: np.ndarray, D: sp.cs
 
     Status "converged" when a step moved no vertex more than `step_tol` · L, or F fell by less than
     `stall_gain` (relative) in `stall_after` steps in a row; "stalled" when no halving keeps the
-    residuals finite and below `max_violation`; "max_iter" / "timeout" otherwise. The positions of
+    residuals finite and below `max_violation`; "cycling" when in `cycle_after` steps neither the
+    largest residual reached a new low nor F a new low with all residuals below `feasible`; "max_iter" / "timeout" otherwise. The positions of
     the outcome are always finite; they need not meet the relaxation tolerances.
     """
     ext = _Extended(model, D, weight, X_ref)
@@ -149,6 +150,7 @@ def fair_creases(model: EnergyModel, X0: np.ndarray, X_ref: np.ndarray, D: sp.cs
     r_hat, J_hat = ext.residuals(z, X_template)
     limit = max(max_violation, 2.0 * float(np.abs(r_hat).max()))
     slow = 0
+    F_best, r_best, since_best = ext.objective(z), np.inf, 0
     status = "max_iter"
     it = 0
     for it in range(1, max_iter + 1):
@@ -196,9 +198,19 @@ def fair_creases(model: EnergyModel, X0: np.ndarray, X_ref: np.ndarray, D: sp.cs
         ev = model.evaluate(ext.positions(z, X_template))
         if record is not None:
             record("fair", ev, 0.0)
-        slow = slow + 1 if abs(F_old - ext.objective(z)) <= stall_gain * F_old else 0
+        F_new = ext.objective(z)
+        slow = slow + 1 if abs(F_old - F_new) <= stall_gain * F_old else 0
         if moved <= step_tol * L or slow >= stall_after:
             status = "converged"
+            break
+        r_max = float(np.abs(r_hat).max())
+        since_best += 1
+        if r_max < r_best:                      # still closing in on the constraints
+            r_best, since_best = r_max, 0
+        if r_max <= feasible and F_new < F_best:  # or still lowering F on them
+            F_best, since_best = F_new, 0
+        if since_best >= cycle_after:
+            status = "cycling"     # the full steps go round: measured at 3 % noise on 48-column panels
             break
         if deadline is not None and time.perf_counter() > deadline:
             status = "timeout"
