@@ -93,3 +93,42 @@ def test_bad_option_exits_2(tmp_path, noisy_obj, capsys):
     assert "tol_defect" in capsys.readouterr().err
     assert main(["relax", str(src), "-o", str(tmp_path / "o.obj"), "--fixed", "99999"]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_crease_fairness_and_kept_edge_lengths_from_the_command_line(tmp_path, noisy_obj):
+    import numpy as np
+
+    src, noisy = noisy_obj
+    out, rep = tmp_path / "out.obj", tmp_path / "r.json"
+    lengths = tmp_path / "lengths.json"
+    u, v = (int(i) for i in noisy.edges[5])
+    lengths.write_text(json.dumps({"edges": [[v, u]], "lengths": [0.05]}))
+    args = ["relax", str(src), "-o", str(out), "--report", str(rep), "--crease-fairness", "10",
+            "--keep-boundary-lengths", "--edge-lengths", str(lengths), "-q"]
+    assert main(args) == 0
+    r = json.loads(rep.read_text())
+    assert any(h["phase"] == "fair" for h in r["history"]) and "crease fairing" in r["message"]
+    assert r["options"]["crease_fairness"] == 10.0
+    res = load_obj(out)
+    b = noisy.topology.boundary_edge_mask
+    assert np.abs(res.edge_lengths[b] / noisy.edge_lengths[b] - 1).max() <= 1e-8
+    assert abs(res.edge_lengths[5] - 0.05) <= 1e-8 * 0.05
+
+
+@pytest.mark.parametrize("content, message", [
+    ('{"edges": [[0, 999]], "lengths": [0.1]}', "is not an edge"),
+    ('{"edges": [[0, 1]], "lengths": [-1]}', "positive number"),
+    ('{"edges": [[0, 1]]}', "expected an object"),
+    ('{"edges": [[0, 1, 2]], "lengths": [1]}', "pairs"),
+    ("not json", "not a JSON edge-length file"),
+])
+def test_bad_edge_length_files_exit_2_with_one_line(tmp_path, noisy_obj, capsys, content, message):
+    src, _ = noisy_obj
+    bad = tmp_path / "bad.json"
+    bad.write_text(content)
+    out = tmp_path / "out.obj"
+    assert main(["relax", str(src), "-o", str(out), "--edge-lengths", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0] and str(bad) in err[0]
+    assert not out.exists()
+    assert main(["relax", str(src), "-o", str(out), "--crease-fairness", "-1"]) == 2

@@ -65,6 +65,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--crease-fairness", type=float, default=d.crease_fairness, metavar="W",
                    help="after converging, smooth the crease curves with weight W while keeping the "
                         "tolerances (0: off; try 10; docs/relax.md 'Crease fairing')")
+    p.add_argument("--edge-lengths", metavar="FILE.json", default=None,
+                   help='keep these edges at these lengths: {"edges": [[u, v], ...], "lengths": [m, ...]} '
+                        "(0-based OBJ vertex ids, metres)")
+    p.add_argument("--keep-boundary-lengths", action="store_true",
+                   help="keep every boundary edge at its input length (e.g. a panel that must fit its frame)")
     p.add_argument("--planarity-weight", type=float, default=d.planarity_weight,
                    help=f"planarity weight w_p (default {d.planarity_weight:g})")
     p.add_argument("--plane", choices=("cross", "covariance"), default=d.plane_method,
@@ -76,6 +81,47 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--write-unconverged", action="store_true",
                    help="write OUT even when the tolerances are missed (exit code stays 1)")
     add_common(p)
+
+
+def _kept_edges(mesh, path, keep_boundary: bool) -> dict:
+    """{edge id: length} from --keep-boundary-lengths and --edge-lengths FILE (the file wins on overlap)."""
+    import numpy as np
+
+    from fabkit.io.jsonfile import load_json
+
+    kept: dict[int, float] = {}
+    if keep_boundary:
+        ids = np.flatnonzero(mesh.topology.boundary_edge_mask)
+        kept.update(zip(ids.tolist(), mesh.edge_lengths[ids].tolist()))
+    if path is None:
+        return kept
+    data = load_json(path, "JSON edge-length file")
+    if not isinstance(data, dict) or not {"edges", "lengths"} <= set(data):
+        raise InputError('expected an object {"edges": [[u, v], ...], "lengths": [...]}', source=path)
+    try:
+        pairs = np.asarray(data["edges"], dtype=np.float64)
+        lengths = np.asarray(data["lengths"], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError('"edges" must be pairs of vertex ids and "lengths" numbers', source=path) from None
+    if pairs.ndim != 2 or pairs.shape[1] != 2 or lengths.ndim != 1 or len(lengths) != len(pairs):
+        raise InputError(f'"edges" must be a list of [u, v] pairs with one length each (got {len(lengths)} '
+                         f"lengths for {len(pairs) if pairs.ndim == 2 else '?'} edges)", source=path)
+    if not np.all(np.isfinite(pairs) & (pairs == np.round(pairs))):
+        raise InputError('"edges" must hold integer vertex ids', source=path)
+    n = mesh.n_vertices
+    E = mesh.edges
+    key = E[:, 0] * n + E[:, 1]
+    order = np.argsort(key)
+    for (u, v), length in zip(pairs.astype(np.int64).tolist(), lengths.tolist()):
+        lo, hi = min(u, v), max(u, v)
+        i = np.searchsorted(key[order], lo * n + hi) if 0 <= lo and hi < n else len(key)
+        if i >= len(key) or key[order][i] != lo * n + hi:
+            raise InputError(f"[{u}, {v}] is not an edge of {mesh.n_vertices}-vertex mesh", source=path)
+        if not (np.isfinite(length) and length > 0):
+            raise InputError(f"edge [{u}, {v}]: length must be a positive number of metres, got {length}",
+                             source=path)
+        kept[int(order[i])] = float(length)
+    return kept
 
 
 def run(args) -> int:
@@ -90,7 +136,8 @@ def run(args) -> int:
             boundary=args.boundary, row_width=args.row_width, fixed=tuple(args.fixed), stage=args.stage,
             stage_defect=args.stage_defect, closeness=args.closeness, planarity_weight=args.planarity_weight,
             plane_method=args.plane, damping=args.damping, finish=not args.no_finish,
-            fallback=not args.no_fallback, max_seconds=args.max_seconds, crease_fairness=args.crease_fairness)
+            fallback=not args.no_fallback, max_seconds=args.max_seconds, crease_fairness=args.crease_fairness,
+            edge_lengths=_kept_edges(mesh, args.edge_lengths, args.keep_boundary_lengths))
     except ValueError as exc:
         raise InputError(str(exc), source="options") from None
     solver = Relaxer(mesh, options, source=str(args.input))
