@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fabkit.generate import grid_faces
+from fabkit.generate import MirrorPlane, grid_faces
 from fabkit.mesh import PolyMesh
 
 
@@ -55,3 +55,12 @@ def crease_edges(mesh: PolyMesh) -> np.ndarray:
     inner = mesh.topology.interior_edges
     ef = mesh.edge_faces[inner]
     return inner[s[ef[:, 0]] != s[ef[:, 1]]]
+
+
+#: reflect_panel parameter sets shared by the relax tests: one crease, two creases, a skewed crease
+REFLECT_PANELS = {
+    "one-crease": dict(columns=12, rows=3),
+    "two-creases": dict(columns=16, rows=3, planes=[MirrorPlane(0.2, np.radians(60)),
+                                                     MirrorPlane(0.4, np.radians(-50), 0.1)]),
+    "skewed": dict(columns=16, rows=4, radius=0.4, arc=1.2, planes=[MirrorPlane(0.3, np.radians(80), 0.3)]),
+}

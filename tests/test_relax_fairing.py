@@ -3,20 +3,14 @@ import numpy as np
 import pytest
 
 from fabkit import measures
-from fabkit.generate import MirrorPlane, reflect_panel
+from fabkit.generate import reflect_panel
 from fabkit.relax import Relaxer, relax
 from fabkit.relax.fairing import _Extended, crease_chains, third_differences
 
-from relax_meshes import crease_edges, folded_grid, perturbed
+from relax_meshes import REFLECT_PANELS, crease_edges, folded_grid, perturbed
 
 TOL = 1e-8
-PANELS = {
-    "one-crease": dict(columns=12, rows=3),
-    "two-creases": dict(columns=16, rows=3, planes=[MirrorPlane(0.2, np.radians(60)),
-                                                     MirrorPlane(0.4, np.radians(-50), 0.1)]),
-    "skewed": dict(columns=16, rows=4, radius=0.4, arc=1.2, planes=[MirrorPlane(0.3, np.radians(80), 0.3)]),
-    "24x12": dict(columns=24, rows=12),
-}
+PANELS = {**REFLECT_PANELS, "24x12": dict(columns=24, rows=12)}
 
 
 def test_third_differences_vanish_on_quadratics_and_wrap_on_loops():

@@ -8,16 +8,11 @@ from fabkit.generate import MirrorPlane, reflect_panel
 from fabkit.relax import RelaxOptions, Relaxer, relax
 from fabkit.relax import dynamic
 
-from relax_meshes import cone_grid, crease_edges, cylinder_grid, folded_grid, perturbed
+from relax_meshes import REFLECT_PANELS, cone_grid, crease_edges, cylinder_grid, folded_grid, perturbed
 
 TOL = 1e-8
 
-PANELS = {
-    "one-crease": dict(columns=12, rows=3),
-    "two-creases": dict(columns=16, rows=3, planes=[MirrorPlane(0.2, np.radians(60)),
-                                                     MirrorPlane(0.4, np.radians(-50), 0.1)]),
-    "skewed": dict(columns=16, rows=4, radius=0.4, arc=1.2, planes=[MirrorPlane(0.3, np.radians(80), 0.3)]),
-}
+PANELS = REFLECT_PANELS
 
 
 def _check_developable(mesh):
