@@ -4,7 +4,7 @@ import pytest
 
 from fabkit import measures
 from fabkit.errors import InputError, ToleranceError
-from fabkit.generate import MirrorPlane, reflect_panel
+from fabkit.generate import reflect_panel
 from fabkit.relax import RelaxOptions, Relaxer, relax
 from fabkit.relax import dynamic
 
