@@ -87,18 +87,23 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
         rhs = r + J @ p if t > 0 else r
         y0 = model.pack(X)
         accepted = False
+        lu = None
         while failures <= max_failures:
-            lu = _factor_spd(JJt, mu_rel * diag_scale)
-            y = lu.solve(rhs) if lu is not None else None
-            if y is None or not np.all(np.isfinite(y)):
-                boost *= 100.0
-                mu_rel *= 100.0
-                failures += 1
-                continue
-            step = p - J.T @ y
-            size = float(np.sqrt((step.reshape(-1, 3) ** 2).sum(axis=1)).max()) if len(step) else 0.0
+            if lu is None:
+                lu = _factor_spd(JJt, mu_rel * diag_scale)
+                y = lu.solve(rhs) if lu is not None else None
+                if y is None or not np.all(np.isfinite(y)):
+                    boost *= 100.0
+                    mu_rel *= 100.0
+                    failures += 1
+                    lu = None
+                    continue
+                full = p - J.T @ y
+                full_size = float(np.sqrt((full.reshape(-1, 3) ** 2).sum(axis=1)).max()) if len(full) else 0.0
+            # a rejected step only shrinks the trust region: the same factorisation and direction serve
+            size = full_size
             beta = min(1.0, radius / size) if size > 0 else 1.0
-            velocity = step * beta
+            velocity = full * beta
             step = velocity
             if geodesic and size > 0:
                 # geodesic acceleration (Transtrum & Sethna 2011): bend the step along the curved valley
