@@ -178,6 +178,8 @@ class EnergyModel:
         self.dof_of_vertex = dof
         self.n_free = int(self.free_mask.sum())
         self._build_jacobian_pattern()
+        self._geo_X = None       # one-entry cache of the geometry at the last X (see _geometry)
+        self._geo = None
 
     # ------------------------------------------------------------------------------------------
     # angle defect
@@ -207,6 +209,22 @@ class EnergyModel:
         g_here = -(g_next + g_prev)
         dtheta = np.stack([g_here, g_next, g_prev], axis=1)  # (nc, 3 vertices, 3)
         return K, dtheta
+
+    def _geometry(self, X: np.ndarray, need_grad: bool):
+        """Corner terms and face-group planes at X, remembered for the last X.
+
+        Gauss–Newton asks for the residuals, the Jacobian and the measures at the same accepted point;
+        the second request reuses the first one's geometry (compared by value, so an X changed in
+        place is recomputed). The returned arrays are shared: callers must not modify them.
+        """
+        if self._geo_X is not None and (self._geo[1] is not None or not need_grad) \
+                and self._geo_X.shape == X.shape and np.array_equal(self._geo_X, X):
+            return self._geo
+        K, dtheta = self._corner_terms(X, need_grad)
+        planes = [self._group_planes(g, X) for g in self.groups]
+        self._geo_X = np.array(X, dtype=np.float64, copy=True)
+        self._geo = (K, dtheta, planes)
+        return self._geo
 
     # ------------------------------------------------------------------------------------------
     # planarity per face group
@@ -250,15 +268,16 @@ class EnergyModel:
         """
         w_p = self.w_p if planarity_weight is None else float(planarity_weight)
         L2 = self.L * self.L
-        K, dtheta = self._corner_terms(X, need_grad)
+        K, dtheta, planes = self._geometry(X, need_grad)
+        K = K.copy()
         E = 0.5 * float(K @ K)
         G = None
         if need_grad:
             # dK_v/dx = -Σ dθ; E_dev gradient = Σ K_v dK_v/dx
             G = _scatter3(self.n, self._dc_verts, -K[self._dc_row][:, None, None] * dtheta)
         planarity = np.zeros(self.n_faces)
-        for g in self.groups:
-            P, R, U, W, Nsum, Nlen, n, d, elen, extra = self._group_planes(g, X)
+        for g, planes_g in zip(self.groups, planes):
+            P, R, U, W, Nsum, Nlen, n, d, elen, extra = planes_g
             planarity[g.face_ids] = np.abs(d).max(axis=1) / elen.mean(axis=1)
             if w_p == 0.0:
                 continue
@@ -362,11 +381,11 @@ class EnergyModel:
         """
         w_p = self.w_p if planarity_weight is None else float(planarity_weight)
         sw = np.sqrt(w_p) / self.L
-        K, dtheta = self._corner_terms(X, need_jacobian)
+        K, dtheta, planes = self._geometry(X, need_jacobian)
         parts_r = [K]
         parts_v = [-dtheta.reshape(-1)] if need_jacobian else []
-        for g in self.groups:
-            P, R, U, W, Nsum, Nlen, n, d, elen, extra = self._group_planes(g, X)
+        for g, planes_g in zip(self.groups, planes):
+            P, R, U, W, Nsum, Nlen, n, d, elen, extra = planes_g
             k = g.k
             if self._planarity_rows(g) == 1:
                 a = np.array([0.5, -0.5, 0.5, -0.5])
