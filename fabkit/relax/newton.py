@@ -78,8 +78,8 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
                  record: Callable[[str, Evaluation, float], None] | None = None,
                  deadline: float | None = None, gamma: float = 10.0, mu_min: float = 1e-15, mu_max: float = 1e-2, radius0: float = 0.05, second_order: bool = True,
                  geodesic: bool = True,
-                 grow_above: float = 0.5,
-                 max_failures: int = 12) -> PhaseOutcome:
+                 grow_above: float = 0.9, shrink: float = 0.5,
+                 max_failures: int = 24) -> PhaseOutcome:
     """Damped Gauss–Newton iterations from X0 until `done` holds (see module docstring).
 
     Trust region: a step may move no vertex further than `radius` × L (radius starts at `radius0` and
@@ -117,9 +117,9 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
                 lu = factor(JJt, mu_rel * diag_scale)
                 y = lu(rhs) if lu is not None else None
                 if y is None or not np.all(np.isfinite(y)):
-                    boost *= 100.0
+                    boost = min(boost * 100.0, 1e12)
                     mu_rel *= 100.0
-                    failures += 1
+                    failures += 2           # a failed factorisation counts as two cheap rejections
                     lu = None
                     continue
                 full = p - J.T @ y
@@ -161,8 +161,8 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
                     radius = max(radius, 2.0 * size)
                     boost = max(boost / 10.0, 1.0)
                 break
-            radius = 0.25 * size
-            boost *= 10.0
+            radius = shrink * size
+            boost = min(boost * 10.0, 1e12)
             failures += 1
         if not accepted:
             status = "stalled"
