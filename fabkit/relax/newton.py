@@ -79,7 +79,7 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
                  deadline: float | None = None, gamma: float = 10.0, mu_min: float = 1e-15, mu_max: float = 1e-2, radius0: float = 0.05, second_order: bool = True,
                  geodesic: bool = True,
                  grow_above: float = 0.9, shrink: float = 0.5,
-                 max_failures: int = 24) -> PhaseOutcome:
+                 max_failures: int = 24, corrections: int = 4) -> PhaseOutcome:
     """Damped Gauss–Newton iterations from X0 until `done` holds (see module docstring).
 
     Trust region: a step may move no vertex further than `radius` × L (radius starts at `radius0` and
@@ -145,16 +145,19 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
             r_try, _ = model.residuals_and_jacobian(X_try, need_jacobian=False)
             phi_try = float(r_try @ r_try)
             rho = (phi - phi_try) / pred if pred > 0 else -1.0
-            if second_order and np.isfinite(phi_try) and rho < 0.75:
-                # second-order correction: one more minimum-norm step from the trial point with the same
-                # factorisation pulls a long step back onto the curved constraint manifold
-                y2 = lu(r_try)
-                X_soc = model.unpack(y0 + step - J.T @ y2, X)
-                r_soc, _ = model.residuals_and_jacobian(X_soc, need_jacobian=False)
-                phi_soc = float(r_soc @ r_soc)
-                if np.isfinite(phi_soc) and phi_soc < phi_try:
-                    X_try, phi_try = X_soc, phi_soc
-                    rho = (phi - phi_try) / pred if pred > 0 else -1.0
+            if second_order and np.isfinite(phi_try):
+                # second-order corrections: minimum-norm steps from the trial point with the same
+                # factorisation pull a long step back onto the curved constraint manifold; the first is
+                # kept when it helps, further ones (at most `corrections` - 1) while each cuts ‖r‖² by 30 %
+                r_c = r_try
+                for k in range(corrections):
+                    X_soc = model.unpack(model.pack(X_try) - J.T @ lu(r_c), X)
+                    r_soc, _ = model.residuals_and_jacobian(X_soc, need_jacobian=False)
+                    phi_soc = float(r_soc @ r_soc)
+                    if not (np.isfinite(phi_soc) and phi_soc < (1.0 if k == 0 else 0.7) * phi_try):
+                        break
+                    X_try, phi_try, r_c = X_soc, phi_soc, r_soc
+                rho = (phi - phi_try) / pred if pred > 0 else -1.0
             if np.isfinite(phi_try) and phi_try < phi and rho > 0.25:
                 accepted = True
                 if rho > grow_above:
