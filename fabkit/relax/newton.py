@@ -30,9 +30,13 @@ finish, reflect panels at σ = 1 % noise, GN steps summed over seeds):
 * the region halves on a rejection and grows only at ρ > 0.9 (was: quartered, grown at ρ > 0.5),
   which stops the reject / accept-a-quarter cycle: seeds 0–2, 2,500 V 46 → 32 steps, 10,000 V
   82 → 52, same displacement;
-* up to `corrections` second-order corrections per trial point (each one solve and one residual
-  with the same factorisation; the first at every trial point, further ones while each cuts ‖r‖² by
-  30 %; it was one, only at ρ < 0.75): seeds 0–5, 2,500 V 77 → 58, 10,000 V 102 → 77.
+* `corrections` > 1: second-order corrections at every trial point, further ones (each one solve and
+  one residual with the same factorisation) while each cuts ‖r‖² by 30 % (default 1: one, only at
+  ρ < 0.75): seeds 0–5, 2,500 V 75 → 58, 10,000 V 102 → 77, same displacement. The solver asks for
+  them (4) only for the finish after DR / L-BFGS: Gauss–Newton from the raw input with them drifted
+  at ~10,000 vertices (seeds 0–2: 9.6, 7.5, 9.2σ from the unperturbed panel instead of 4.4, 4.1, 4.6σ;
+  the second step, from ‖r‖∞ ~ 2e-4, made the jump; gating by ‖r‖∞ or capping each correction's move
+  at a quarter of the step still gave 5.5–6.4σ).
 
 Tried and measured without gain: "chord" steps with the previous factorisation at the new point
 (with the new or the old J: the weak directions change too much, the steps were rejected or cut ‖r‖²
@@ -107,7 +111,7 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
                  deadline: float | None = None, gamma: float = 10.0, mu_min: float = 1e-15, mu_max: float = 1e-2, radius0: float = 0.05, second_order: bool = True,
                  geodesic: bool = True,
                  grow_above: float = 0.9, shrink: float = 0.5,
-                 max_failures: int = 24, corrections: int = 4) -> PhaseOutcome:
+                 max_failures: int = 24, corrections: int = 1) -> PhaseOutcome:
     """Damped Gauss–Newton iterations from X0 until `done` holds (see module docstring).
 
     Trust region: a step may move no vertex further than `radius` × L (radius starts at `radius0` and
@@ -174,10 +178,11 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
             r_try, _ = model.residuals_and_jacobian(X_try, need_jacobian=False)
             phi_try = float(r_try @ r_try)
             rho = (phi - phi_try) / pred if pred > 0 else -1.0
-            if second_order and np.isfinite(phi_try):
+            if second_order and corrections > 0 and np.isfinite(phi_try) and (rho < 0.75 or corrections > 1):
                 # second-order corrections: minimum-norm steps from the trial point with the same
-                # factorisation pull a long step back onto the curved constraint manifold; the first is
-                # kept when it helps, further ones (at most `corrections` - 1) while each cuts ‖r‖² by 30 %
+                # factorisation pull a long step back onto the curved constraint manifold. One: only
+                # when ρ < 0.75, kept when it helps. More: at every trial point, the further ones while
+                # each cuts ‖r‖² by 30 % (for a start near the manifold, see the module docstring)
                 r_c = r_try
                 for k in range(corrections):
                     X_soc = model.unpack(model.pack(X_try) - J.T @ lu(r_c), X)
