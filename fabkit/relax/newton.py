@@ -17,9 +17,41 @@ step with the second directional derivative of r, one extra residual and the sam
 a second-order correction from the trial point cut the Gauss–Newton steps at ~2,500 vertices from 33
 to 16 (measured on the reflect panel at 1 % noise).
 
+Why it crawls (measured on the reflect panel): J has singular values down to ~1e-6 of the largest,
+all in combinations of angle-defect rows; the linear solves are accurate (relative residual ≤ 1e-7)
+but the minimum-norm step moves ~1e-3 L along those directions even when ‖r‖ ~ 1e-7, and the
+second-order terms of r then spoil it (ρ < 0 for the full step; the best step along the direction is
+about half of it). What the factorisation budget goes to, from the measurements of issue 3 (DR + this
+finish, reflect panels at σ = 1 % noise, GN steps summed over seeds):
+
+* a rejected step only shrinks the trust region and reuses the factorisation and direction (the
+  matrix is the same: μ changes at the next step only); it used to refactorise: 18 → 14
+  factorisations at ~2,500 vertices, 32 → 22 at ~10,000 (seed 0, same iterates);
+* the region halves on a rejection and grows only at ρ > 0.9 (was: quartered, grown at ρ > 0.5),
+  which stops the reject / accept-a-quarter cycle: seeds 0–2, 2,500 V 46 → 32 steps, 10,000 V
+  82 → 52, same displacement;
+* `corrections` > 1: second-order corrections at every trial point, further ones (each one solve and
+  one residual with the same factorisation) while each cuts ‖r‖² by 30 % (default 1: one, only at
+  ρ < 0.75): seeds 0–5, 2,500 V 75 → 58, 10,000 V 102 → 77, same displacement. The solver asks for
+  them (4) only for the finish after DR / L-BFGS: Gauss–Newton from the raw input with them drifted
+  at ~10,000 vertices (seeds 0–2: 9.6, 7.5, 9.2σ from the unperturbed panel instead of 4.4, 4.1, 4.6σ;
+  the second step, from ‖r‖∞ ~ 2e-4, made the jump; gating by ‖r‖∞ or capping each correction's move
+  at a quarter of the step still gave 5.5–6.4σ).
+
+Tried and measured without gain: "chord" steps with the previous factorisation at the new point
+(with the new or the old J: the weak directions change too much, the steps were rejected or cut ‖r‖²
+by < 30 %); stronger or weaker damping (γ = 0.1 … 1e5: fewer steps only with γ ≤ 0.3 and then 10–13σ
+from the unperturbed panel, more steps above 10); scaling the planarity rows (× 0.3: 12σ; × 3, 10:
+more steps); extending an accepted short step along the same direction; the DR hand-over point
+(finish_below 0.05, 0.003: same step counts).
+
 The linear algebra is scipy.sparse: the SPD system J Jᵀ + μI has one row per residual (about
 n_interior + n_faces, fewer than the 3n coordinates); SuperLU factorises it with a minimum-degree
-ordering on Jᵀ+J (measured fastest of SuperLU's orderings, and 3× faster than the 3n × 3n JᵀJ form).
+ordering on Jᵀ+J (measured fastest of SuperLU's orderings, and 3× faster than the 3n × 3n JᵀJ form),
+computed by the first factorisation and reused by the later ones. Measured slower at ~10,000 vertices:
+COLAMD and MMD on AᵀA (2.6× the fill), reverse Cuthill–McKee (2.4× fill; banded Cholesky of the RCM
+form 0.24 s vs 0.16 s), a geometric nested dissection computed from the residual positions (1.2–1.3×
+fill), CHOLMOD through cholespy (2× slower), other SuperLU relax / panel_size settings (within noise).
 """
 from __future__ import annotations
 
@@ -35,19 +67,42 @@ from fabkit.relax.dynamic import PhaseOutcome
 from fabkit.relax.energy import EnergyModel, Evaluation
 
 
-def _factor_spd(JJt: sp.csr_matrix, mu: float):
-    """SuperLU factorisation of J Jᵀ + μI (symmetric mode), or None when it fails.
+class _SPDFactor:
+    """SuperLU factorisations of J Jᵀ + μI (symmetric mode) for one Jacobian pattern.
 
-    Reusing an earlier factorisation as a conjugate-gradient preconditioner was tried and measured:
-    the weak directions change too much from step to step for it to converge in a few iterations.
+    The first factorisation orders with minimum degree on Aᵀ+A; later ones reuse that ordering
+    (NATURAL on the permuted matrix), which skips SuperLU's ordering step: measured 15 % less time per
+    factorisation at ~10,000 vertices, same fill. Reusing an earlier factorisation as a
+    conjugate-gradient preconditioner, or for "chord" steps, was tried and measured: the weak
+    directions change too much from step to step (chord steps were rejected or barely reduced ‖r‖).
     """
-    A = (JJt + sp.identity(JJt.shape[0], format="csr") * mu).tocsc()
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", spla.MatrixRankWarning)
-            return spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-    except (RuntimeError, spla.MatrixRankWarning):
-        return None
+
+    def __init__(self):
+        self.order = None       # row/column order of the permuted matrix (None: not yet known)
+
+    def __call__(self, JJt: sp.csr_matrix, mu: float):
+        """A solve function y = (J Jᵀ + μI)⁻¹ b, or None when the factorisation fails."""
+        A = JJt + sp.identity(JJt.shape[0], format="csr") * mu
+        q = self.order
+        if q is not None:
+            A = A[q][:, q]
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", spla.MatrixRankWarning)
+                lu = spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A" if q is None else "NATURAL",
+                               diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        except (RuntimeError, spla.MatrixRankWarning):
+            return None
+        if q is None:
+            # Pc maps column i to position perm_c[i]: the elimination order is its inverse
+            self.order = np.argsort(lu.perm_c)
+            return lu.solve
+
+        def solve(b: np.ndarray) -> np.ndarray:
+            y = np.empty_like(b)
+            y[q] = lu.solve(b[q])
+            return y
+        return solve
 
 
 def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Callable[[Evaluation], bool],
@@ -55,12 +110,13 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
                  record: Callable[[str, Evaluation, float], None] | None = None,
                  deadline: float | None = None, gamma: float = 10.0, mu_min: float = 1e-15, mu_max: float = 1e-2, radius0: float = 0.05, second_order: bool = True,
                  geodesic: bool = True,
-                 grow_above: float = 0.5,
-                 max_failures: int = 12) -> PhaseOutcome:
+                 grow_above: float = 0.9, shrink: float = 0.5,
+                 max_failures: int = 24, corrections: int = 1) -> PhaseOutcome:
     """Damped Gauss–Newton iterations from X0 until `done` holds (see module docstring).
 
     Trust region: a step may move no vertex further than `radius` × L (radius starts at `radius0` and
-    adapts to the gain ratio ρ = actual / predicted decrease of ‖r‖²); μ grows until the step fits.
+    adapts to the gain ratio ρ = actual / predicted decrease of ‖r‖²: × `shrink` on a rejection, which
+    reuses the factorisation, × 2 at ρ > `grow_above`); each rejection raises μ for the next step.
     Keeping steps where the linear model holds stops the minimum-norm step from wandering along the
     nearly singular directions of the angle defect (nearly flat or cylindrical regions).
     """
@@ -76,6 +132,7 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
     status = "max_iter"
     it = 0
     r, J = model.residuals_and_jacobian(X)
+    factor = _SPDFactor()
     boost = 1.0
     for it in range(1, max_iter + 1):
         phi = float(r @ r)
@@ -87,18 +144,23 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
         rhs = r + J @ p if t > 0 else r
         y0 = model.pack(X)
         accepted = False
+        lu = None
         while failures <= max_failures:
-            lu = _factor_spd(JJt, mu_rel * diag_scale)
-            y = lu.solve(rhs) if lu is not None else None
-            if y is None or not np.all(np.isfinite(y)):
-                boost *= 100.0
-                mu_rel *= 100.0
-                failures += 1
-                continue
-            step = p - J.T @ y
-            size = float(np.sqrt((step.reshape(-1, 3) ** 2).sum(axis=1)).max()) if len(step) else 0.0
+            if lu is None:
+                lu = factor(JJt, mu_rel * diag_scale)
+                y = lu(rhs) if lu is not None else None
+                if y is None or not np.all(np.isfinite(y)):
+                    boost = min(boost * 100.0, 1e12)
+                    mu_rel *= 100.0
+                    failures += 2           # a failed factorisation counts as two cheap rejections
+                    lu = None
+                    continue
+                full = p - J.T @ y
+                full_size = float(np.sqrt((full.reshape(-1, 3) ** 2).sum(axis=1)).max()) if len(full) else 0.0
+            # a rejected step only shrinks the trust region: the same factorisation and direction serve
+            size = full_size
             beta = min(1.0, radius / size) if size > 0 else 1.0
-            velocity = step * beta
+            velocity = full * beta
             step = velocity
             if geodesic and size > 0:
                 # geodesic acceleration (Transtrum & Sethna 2011): bend the step along the curved valley
@@ -106,7 +168,7 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
                 h = 0.1
                 r_h, _ = model.residuals_and_jacobian(model.unpack(y0 + h * velocity, X), need_jacobian=False)
                 r_vv = (2.0 / h) * ((r_h - r) / h - J @ velocity)
-                accel = -(J.T @ lu.solve(r_vv))
+                accel = -(J.T @ lu(r_vv))
                 if np.all(np.isfinite(accel)) and np.linalg.norm(accel) <= 1.5 * np.linalg.norm(velocity):
                     step = velocity + 0.5 * accel
             size = float(np.sqrt((step.reshape(-1, 3) ** 2).sum(axis=1)).max()) if len(step) else 0.0
@@ -116,24 +178,28 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
             r_try, _ = model.residuals_and_jacobian(X_try, need_jacobian=False)
             phi_try = float(r_try @ r_try)
             rho = (phi - phi_try) / pred if pred > 0 else -1.0
-            if second_order and np.isfinite(phi_try) and rho < 0.75:
-                # second-order correction: one more minimum-norm step from the trial point with the same
-                # factorisation pulls a long step back onto the curved constraint manifold
-                y2 = lu.solve(r_try)
-                X_soc = model.unpack(y0 + step - J.T @ y2, X)
-                r_soc, _ = model.residuals_and_jacobian(X_soc, need_jacobian=False)
-                phi_soc = float(r_soc @ r_soc)
-                if np.isfinite(phi_soc) and phi_soc < phi_try:
-                    X_try, phi_try = X_soc, phi_soc
-                    rho = (phi - phi_try) / pred if pred > 0 else -1.0
+            if second_order and corrections > 0 and np.isfinite(phi_try) and (rho < 0.75 or corrections > 1):
+                # second-order corrections: minimum-norm steps from the trial point with the same
+                # factorisation pull a long step back onto the curved constraint manifold. One: only
+                # when ρ < 0.75, kept when it helps. More: at every trial point, the further ones while
+                # each cuts ‖r‖² by 30 % (for a start near the manifold, see the module docstring)
+                r_c = r_try
+                for k in range(corrections):
+                    X_soc = model.unpack(model.pack(X_try) - J.T @ lu(r_c), X)
+                    r_soc, _ = model.residuals_and_jacobian(X_soc, need_jacobian=False)
+                    phi_soc = float(r_soc @ r_soc)
+                    if not (np.isfinite(phi_soc) and phi_soc < (1.0 if k == 0 else 0.7) * phi_try):
+                        break
+                    X_try, phi_try, r_c = X_soc, phi_soc, r_soc
+                rho = (phi - phi_try) / pred if pred > 0 else -1.0
             if np.isfinite(phi_try) and phi_try < phi and rho > 0.25:
                 accepted = True
                 if rho > grow_above:
                     radius = max(radius, 2.0 * size)
                     boost = max(boost / 10.0, 1.0)
                 break
-            radius = 0.25 * size
-            boost *= 10.0
+            radius = shrink * size
+            boost = min(boost * 10.0, 1e12)
             failures += 1
         if not accepted:
             status = "stalled"

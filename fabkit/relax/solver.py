@@ -167,8 +167,8 @@ class Relaxer:
                             deadline=deadline)
                 statuses.append(f"L-BFGS {out.status}")
             if o.method == "newton" or (o.finish and out.status in ("switch", "stalled", "max_iter")):
-                start = X if (o.method == "newton" or out.status == "diverged") else out.X
-                nt = self._newton(start, record, deadline)
+                from_input = o.method == "newton" or out.status == "diverged"
+                nt = self._newton(X if from_input else out.X, record, deadline, near=not from_input)
                 statuses.append(f"Newton {nt.status}")
                 out = self._better(out, nt)
             if o.fallback and not self._done(out.evaluation) and out.status != "timeout":
@@ -179,7 +179,7 @@ class Relaxer:
                                              deadline=deadline)
                     statuses.append(f"fallback DR {alt.status}")
                     if alt.status in ("switch", "stalled", "max_iter"):
-                        alt = self._newton(alt.X, record, deadline)
+                        alt = self._newton(alt.X, record, deadline, near=True)
                         statuses.append(f"Newton {alt.status}")
                 else:
                     alt = self._newton(X, record, deadline)
@@ -189,10 +189,11 @@ class Relaxer:
             out = self._fair(out, record, deadline, statuses)
         return self._result(out, history, counts, statuses, time.perf_counter() - t0)
 
-    def _newton(self, X: np.ndarray, record, deadline) -> PhaseOutcome:
+    def _newton(self, X: np.ndarray, record, deadline, near: bool = False) -> PhaseOutcome:
+        """Gauss–Newton from X; `near`: X comes from DR / L-BFGS (more second-order corrections pay)."""
         o = self.options
         return gauss_newton(self.model, X, max_iter=int(o.newton_max_iter), done=self._done, x_ref=self.x_ref,
-                            closeness=o.closeness, record=record, deadline=deadline)
+                            closeness=o.closeness, record=record, deadline=deadline, corrections=4 if near else 1)
 
     def _fair(self, out: PhaseOutcome, record, deadline, statuses: list[str]) -> PhaseOutcome:
         """Crease fairing from a converged outcome; keeps `out` unless the faired panel also converges."""
