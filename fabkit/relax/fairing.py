@@ -39,7 +39,7 @@ from fabkit.cutfiles.creases import chain_edges, crease_assignment
 from fabkit.mesh import PolyMesh
 from fabkit.relax.dynamic import PhaseOutcome
 from fabkit.relax.energy import EnergyModel, Evaluation
-from fabkit.relax.newton import _factor_spd
+from fabkit.relax.newton import _SPDFactor
 
 __all__ = ["crease_chains", "third_differences", "fair_creases"]
 
@@ -158,18 +158,19 @@ def fair_creases(model: EnergyModel, X0: np.ndarray, X_ref: np.ndarray, D: sp.cs
     F_best, r_best, since_best = ext.objective(z), np.inf, 0
     status = "max_iter"
     it = 0
+    factor = _SPDFactor()     # one Ĵ pattern: the first ordering serves every step
     for it in range(1, max_iter + 1):
         JJt = (J_hat @ J_hat.T).tocsr()
         scale = max(float(JJt.diagonal().mean()), 1e-300)
         mu = max(10.0 * float(np.abs(r_hat).max()) ** 2, 1e-14)
-        lu = None
+        solve = None
         for _ in range(6):
-            lu = _factor_spd(JJt, mu * scale)
-            if lu is not None:
+            solve = factor(JJt, mu * scale)
+            if solve is not None:
                 break
             mu *= 100.0
         p = z_ref - z
-        u = lu.solve(r_hat + J_hat @ p) if lu is not None else None
+        u = solve(r_hat + J_hat @ p) if solve is not None else None
         if u is None or not np.all(np.isfinite(u)):
             status = "stalled"
             break
@@ -186,7 +187,7 @@ def fair_creases(model: EnergyModel, X0: np.ndarray, X_ref: np.ndarray, D: sp.cs
                 break
             if alpha == 1.0 and np.all(np.isfinite(r_try)):
                 # second-order correction: pull the full step back onto the curved constraints
-                z_soc = z_try - J_hat.T @ lu.solve(r_try)
+                z_soc = z_try - J_hat.T @ solve(r_try)
                 r_soc, _ = ext.residuals(z_soc, X_template, need_jacobian=False)
                 if np.all(np.isfinite(r_soc)) and float(np.abs(r_soc).max()) <= limit:
                     z_try, accepted = z_soc, True
