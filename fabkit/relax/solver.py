@@ -261,8 +261,13 @@ class Relaxer:
             message = f"did not converge after {n_it} iterations ({phases}): {measures_txt}"
             if self.extended is not None:
                 message += (f"; the fixed boundary row ({o.boundary}) also asks angle sum 2π at every boundary "
-                            "vertex, which this panel could not meet (measured on the tri-fold at resolution 32: "
-                            "free and fixed boundaries converge; try them or another --row-width)")
+                            "vertex, which this panel could not meet (on the tri-fold with 2 or 4 rows per strip "
+                            "most row options stall while --boundary free converges; try free or another "
+                            "--row-width)")
+            elif o.boundary == "fixed":
+                message += ("; a fixed boundary keeps every boundary vertex where the input has it, which may leave "
+                            "no developable panel in reach (on the tri-fold with 4 rows per strip it does; "
+                            "--boundary free converges there)")
         return RelaxResult(
             mesh=mesh, converged=converged, message=message, method=o.method, iterations=n_it,
             phase_iterations=dict(counts), max_defect=ev.max_defect, mean_defect=ev.mean_defect,
