@@ -168,3 +168,23 @@ def test_triangle_meshes_and_unused_vertices():
     res = relax(noisy)
     assert res.converged and res.mesh.n_vertices == extra.n_vertices
     assert np.array_equal(res.mesh.vertices[-1], noisy.vertices[-1])
+
+
+def test_routes_that_end_above_the_input_energy_return_the_input(monkeypatch):
+    """A failed route must never hand back a panel worse than the input (seen once on a boundary row)."""
+    from fabkit.relax import solver as solver_module
+    from fabkit.relax.dynamic import PhaseOutcome
+
+    truth = reflect_panel(**PANELS["one-crease"])
+    noisy, sigma = perturbed(truth, 0.01, seed=6)
+    s = Relaxer(noisy)
+
+    def garbage(model, X, **kwargs):
+        bad = X + np.random.default_rng(1).normal(scale=50 * sigma, size=X.shape)
+        return PhaseOutcome(bad, model.evaluate(bad), 3, "stalled")
+
+    monkeypatch.setattr(solver_module, "dynamic_relaxation", garbage)
+    monkeypatch.setattr(solver_module, "gauss_newton", garbage)
+    res = s.solve()
+    assert not res.converged and "returned the input positions" in res.message
+    assert np.array_equal(res.mesh.vertices, noisy.vertices)

@@ -129,6 +129,7 @@ class Relaxer:
         t0 = time.perf_counter()
         deadline = None if o.max_seconds is None else t0 + o.max_seconds
         X = self._problem_positions(X0)
+        X_start = X.copy()
         history: list[IterationRecord] = []
         counts: dict[str, int] = {}
 
@@ -187,6 +188,10 @@ class Relaxer:
                 out = self._better(out, alt)
         if o.crease_fairness > 0 and self._done(out.evaluation):
             out = self._fair(out, record, deadline, statuses)
+        if not self._done(out.evaluation) and not (out.evaluation.energy <= ev0.energy):
+            # every route ended worse than where it started: never hand back a panel worse than the input
+            statuses.append("every route ended above the input's energy: returned the input positions")
+            out = PhaseOutcome(X_start, ev0, out.iterations, "diverged")
         return self._result(out, history, counts, statuses, time.perf_counter() - t0)
 
     def _newton(self, X: np.ndarray, record, deadline, near: bool = False) -> PhaseOutcome:
