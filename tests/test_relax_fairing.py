@@ -28,6 +28,31 @@ def test_third_differences_vanish_on_quadratics_and_wrap_on_loops():
     assert third_differences([np.array([0, 1, 2])], 3).shape == (0, 3)   # too short: no row
 
 
+def test_third_differences_scale_with_the_crease_resolution():
+    t = np.linspace(0.0, 1.0, 25)                                  # 24 equal segments: h_ref = 2 h
+    P = np.stack([t, 0 * t, 0 * t], axis=1)
+    D = third_differences([np.arange(25)], 25, P)
+    assert np.allclose(np.abs(D.data).reshape(-1, 4) / [1, 3, 3, 1], 4.0)   # (h_ref / h)² = 4
+
+
+def test_crease_chains_stop_at_corners_of_the_design():
+    from fabkit.generate import grid_faces
+    from fabkit.mesh import PolyMesh
+
+    n = 7                                                          # 6 x 6 quads, an L-shaped crease
+    x, y = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float), indexing="ij")
+    V = np.stack([x, y, 0 * x], axis=-1).reshape(-1, 3)
+    faces = grid_faces(n - 1, n)
+    centre = V[faces].mean(axis=1)
+    strip = ((centre[:, 0] < 3) & (centre[:, 1] < 3)).astype(np.int64)
+    mesh = PolyMesh(V, faces, face_data={"strip": strip})
+    chains = crease_chains(mesh)
+    corner = 3 * n + 3
+    assert len(chains) == 2 and all(len(c) == 4 for c in chains)
+    assert all(corner in (c[0], c[-1]) for c in chains)             # split at the 90° corner, shared
+    assert len(crease_chains(mesh, kink_angle=np.radians(120))) == 1   # a blunter threshold keeps one
+
+
 def test_crease_chains_follow_strip_tags_or_folded_edges():
     one = reflect_panel(**PANELS["one-crease"])
     chains = crease_chains(one)
@@ -88,12 +113,13 @@ def test_fairing_at_three_percent_noise_converges_near_the_panel(name):
 
 
 def test_fairing_barely_moves_an_exact_panel_and_honours_fixed_vertices_and_rows():
-    truth = reflect_panel(**PANELS["24x12"])
-    res = relax(truth, crease_fairness=10.0)
-    assert res.converged
-    L = float(truth.edge_lengths.mean())
-    assert res.max_displacement <= 1e-2 * L                       # the exact crease is nearly quadratic
-    assert _dihedral_change_deg(truth, res.mesh).max() <= 0.1
+    for kw in PANELS.values():                  # the exact creases are nearly quadratic: little to fair
+        truth = reflect_panel(**kw)
+        res = relax(truth, crease_fairness=10.0)
+        assert res.converged
+        L = float(truth.edge_lengths.mean())
+        assert res.max_displacement <= 2e-2 * L                   # measured 0.9-1.4 % of an edge
+        assert _dihedral_change_deg(truth, res.mesh).max() <= 0.1  # measured 0.01-0.07 deg
     noisy, sigma = perturbed(reflect_panel(**PANELS["one-crease"]), 0.01, seed=3)
     fixed = [0, 20, 33]
     held = relax(noisy, crease_fairness=10.0, fixed=fixed)

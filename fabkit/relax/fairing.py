@@ -46,24 +46,59 @@ __all__ = ["crease_chains", "third_differences", "fair_creases"]
 _STENCIL = np.array([-1.0, 3.0, -3.0, 1.0])
 
 
-def crease_chains(mesh: PolyMesh) -> list[np.ndarray]:
+#: a crease turning by more than this [rad] at a vertex is a corner of the design: fairing stops there
+KINK_ANGLE = np.radians(30.0)
+#: the weight acts as on a crease of this many segments; finer creases get proportionally more
+REFERENCE_SEGMENTS = 12
+
+
+def crease_chains(mesh: PolyMesh, kink_angle: float = KINK_ANGLE) -> list[np.ndarray]:
     """Crease polylines of `mesh` as vertex-id arrays in order (closed loops repeat their first vertex).
 
     Creases come from `fabkit.cutfiles.crease_assignment`: edges between faces of different
     `face_data["strip"]`, or without strip tags interior edges folded by more than 5°. Chains break
-    at junctions (vertices where more or fewer than two crease edges meet).
+    at junctions (vertices where more or fewer than two crease edges meet) and at kinks, where the
+    polyline turns by more than `kink_angle` in `mesh` (a deliberate corner, not noise: σ = 3 % noise
+    turns a straight crease by about 5°), so fairing never rounds a corner off.
     """
     ca = crease_assignment(mesh)
     edges = mesh.edges[np.flatnonzero(np.isin(ca.edges_assignment, ("M", "V", "U")))]
-    return [np.asarray(c, dtype=np.int64) for c in chain_edges(edges)] if len(edges) else []
+    if not len(edges):
+        return []
+    V = mesh.vertices
+    out: list[np.ndarray] = []
+    for c in chain_edges(edges):
+        c = np.asarray(c, dtype=np.int64)
+        closed = len(c) > 2 and c[0] == c[-1]
+        seg = np.diff(V[c], axis=0)
+        seg /= np.maximum(np.linalg.norm(seg, axis=1, keepdims=True), 1e-300)
+        a, b = (np.vstack([seg[-1:], seg[:-1]]), seg) if closed else (seg[:-1], seg[1:])
+        turn = np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1.0, 1.0))
+        kinks = np.flatnonzero(turn > kink_angle) + (0 if closed else 1)   # positions in c
+        if closed and len(kinks):
+            start = int(kinks[0])                                          # open the loop at a kink
+            c = np.concatenate([c[start:-1], c[:start + 1]])
+            kinks = (kinks - start)[1:]
+        pieces = np.split(np.arange(len(c)), kinks) if len(kinks) else [np.arange(len(c))]
+        for k, piece in enumerate(pieces):
+            idx = piece if k == len(pieces) - 1 else np.append(piece, piece[-1] + 1)  # share the kink vertex
+            out.append(c[idx])
+    return out
 
 
-def third_differences(chains: list[np.ndarray], n_vertices: int) -> sp.csr_matrix:
+def third_differences(chains: list[np.ndarray], n_vertices: int,
+                      positions: np.ndarray | None = None) -> sp.csr_matrix:
     """Sparse (rows, n_vertices) operator of the third differences along each chain (cyclic when closed).
 
-    Chains with fewer than four distinct vertices have no third difference and add no row.
+    With `positions`, each row is scaled by (h_ref / h)², h the mean length of its three segments and
+    h_ref the chain's length / `REFERENCE_SEGMENTS`: a weight w then smooths about as much at every
+    resolution (the integral of |c‴|² along the crease is about Σ |Δ³c|² / h⁵; the fourth power
+    measured best). Measured on reflect panels at 1 % noise, w = 10: unscaled, the largest crease fold
+    change was 0.1–0.4° at 12–48 columns but 0.7° at 96; scaled it is 0.03–0.3° throughout. Chains
+    with fewer than four distinct vertices have no third difference and add no row.
     """
     rows: list[np.ndarray] = []
+    scales: list[np.ndarray] = []
     for c in chains:
         closed = len(c) > 1 and c[0] == c[-1]
         v = c[:-1] if closed else c
@@ -71,13 +106,22 @@ def third_differences(chains: list[np.ndarray], n_vertices: int) -> sp.csr_matri
         if m < 4:
             continue
         starts = np.arange(m) if closed else np.arange(m - 3)
-        rows.append(v[(starts[:, None] + np.arange(4)[None, :]) % m])
+        idx = v[(starts[:, None] + np.arange(4)[None, :]) % m]
+        rows.append(idx)
+        if positions is None:
+            scales.append(np.ones(len(idx)))
+            continue
+        P = positions[idx]                                                  # (rows, 4, 3)
+        h = np.linalg.norm(np.diff(P, axis=1), axis=2).mean(axis=1)
+        h_ref = np.linalg.norm(np.diff(positions[c], axis=0), axis=1).sum() / REFERENCE_SEGMENTS
+        scales.append((h_ref / np.maximum(h, 1e-300)) ** 2)
     if not rows:
         return sp.csr_matrix((0, n_vertices))
     idx = np.concatenate(rows)
+    scale = np.concatenate(scales)
     k = len(idx)
-    return sp.csr_matrix((np.tile(_STENCIL, k), (np.repeat(np.arange(k), 4), idx.reshape(-1))),
-                         shape=(k, n_vertices))
+    values = (_STENCIL[None, :] * scale[:, None]).reshape(-1)
+    return sp.csr_matrix((values, (np.repeat(np.arange(k), 4), idx.reshape(-1))), shape=(k, n_vertices))
 
 
 class _Extended:

@@ -89,7 +89,7 @@ class Relaxer:
         self.edge_ids = None if edge_pairs is None else ids
         self.fairness_operator = None
         if options.crease_fairness > 0:
-            D = third_differences(crease_chains(mesh), mesh.n_vertices)
+            D = third_differences(crease_chains(mesh), mesh.n_vertices, mesh.vertices)
             pad = pmesh.n_vertices - mesh.n_vertices   # boundary-row vertices come after the mesh's own
             self.fairness_operator = sp.hstack([D, sp.csr_matrix((D.shape[0], pad))], format="csr") if pad else D
         self.problem_mesh = pmesh
@@ -147,6 +147,7 @@ class Relaxer:
         if not ev0.finite:
             raise InputError("the energy of the input is not finite (degenerate faces?)")
         out: PhaseOutcome = PhaseOutcome(X, ev0, 0, "converged" if self._done(ev0) else "start")
+        fair_done = False
         if out.status != "converged":
             budget = int(o.max_iter)
             if o.method in ("dr", "lbfgs") and o.stage:
@@ -167,7 +168,14 @@ class Relaxer:
                 out = lbfgs(self.model, X, max_iter=budget, done=self._done, switch=switch, record=record,
                             deadline=deadline)
                 statuses.append(f"L-BFGS {out.status}")
-            if o.method == "newton" or (o.finish and out.status in ("switch", "stalled", "max_iter")):
+            if o.method != "newton" and out.status == "switch" and self._fairing_possible():
+                # fairing straight from the DR / L-BFGS hand-over: its steps also close the residuals, so
+                # the Gauss–Newton finish runs once, after it (measured 2x faster than fairing after it)
+                faired = self._fair(out, record, deadline, statuses)
+                if faired is not None:
+                    out, fair_done = faired, True
+            if not fair_done and (o.method == "newton" or (o.finish and out.status in ("switch", "stalled",
+                                                                                         "max_iter"))):
                 from_input = o.method == "newton" or out.status == "diverged"
                 nt = self._newton(X if from_input else out.X, record, deadline, near=not from_input)
                 statuses.append(f"Newton {nt.status}")
@@ -186,8 +194,16 @@ class Relaxer:
                     alt = self._newton(X, record, deadline)
                     statuses.append(f"fallback Newton from the input {alt.status}")
                 out = self._better(out, alt)
-        if o.crease_fairness > 0 and self._done(out.evaluation):
-            out = self._fair(out, record, deadline, statuses)
+        if o.crease_fairness > 0 and not fair_done and self._done(out.evaluation):
+            if not self._fairing_possible():
+                statuses.append("crease fairing skipped: no crease of 4 or more vertices (no strip tags, no edge "
+                                "folded by more than 5 degrees)")
+            else:
+                faired = self._fair(out, record, deadline, statuses)
+                if faired is None:
+                    statuses.append("faired panel missed the tolerances: kept the unfaired result")
+                else:
+                    out = faired
         if not self._done(out.evaluation) and not (out.evaluation.energy <= ev0.energy):
             # every route ended worse than where it started: never hand back a panel worse than the input
             statuses.append("every route ended above the input's energy: returned the input positions")
@@ -200,23 +216,21 @@ class Relaxer:
         return gauss_newton(self.model, X, max_iter=int(o.newton_max_iter), done=self._done, x_ref=self.x_ref,
                             closeness=o.closeness, record=record, deadline=deadline, corrections=4 if near else 1)
 
-    def _fair(self, out: PhaseOutcome, record, deadline, statuses: list[str]) -> PhaseOutcome:
-        """Crease fairing from a converged outcome; keeps `out` unless the faired panel also converges."""
+    def _fairing_possible(self) -> bool:
         D = self.fairness_operator
-        if D is None or D.shape[0] == 0:
-            statuses.append("crease fairing skipped: no crease of 4 or more vertices (no strip tags, no edge "
-                            "folded by more than 5 degrees)")
-            return out
-        fair = fair_creases(self.model, out.X, self.x_ref, D, self.options.crease_fairness, record=record,
-                            deadline=deadline)
+        return self.options.crease_fairness > 0 and D is not None and D.shape[0] > 0
+
+    def _fair(self, out: PhaseOutcome, record, deadline, statuses: list[str]) -> PhaseOutcome | None:
+        """Crease fairing from `out`, then the Gauss–Newton finish if needed; None unless it converges."""
+        fair = fair_creases(self.model, out.X, self.x_ref, self.fairness_operator, self.options.crease_fairness,
+                            record=record, deadline=deadline)
         statuses.append(f"crease fairing {fair.status} ({fair.iterations} steps)")
         if not self._done(fair.evaluation) and fair.evaluation.finite:
-            fair = self._newton(fair.X, record, deadline)
+            fair = self._newton(fair.X, record, deadline, near=True)
             statuses.append(f"Newton {fair.status}")
         if self._done(fair.evaluation):
             return PhaseOutcome(fair.X, fair.evaluation, out.iterations + fair.iterations, "converged")
-        statuses.append("faired panel missed the tolerances: kept the unfaired result")
-        return out
+        return None
 
     def _better(self, a: PhaseOutcome, b: PhaseOutcome) -> PhaseOutcome:
         """The converged one, else the finite one with the lower energy (a: the earlier outcome)."""
