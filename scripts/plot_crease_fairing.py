@@ -23,22 +23,22 @@ def main(out: str = "docs/img/relax_fairing.png") -> None:
     truth = reflect_panel(columns=48, rows=25)
     sigma = 0.01 * float(truth.edge_lengths.mean())
     noisy = truth.with_vertices(truth.vertices + np.random.default_rng(0).normal(scale=sigma, size=truth.vertices.shape))
-    plain = relax(noisy)
-    faired = relax(noisy, crease_fairness=10.0)
+    plain = relax(noisy, crease_fairness=0.0)
+    faired = relax(noisy)                      # crease fairing is on by default (weight 10)
     (chain,) = crease_chains(truth)
     lookup = {tuple(sorted(e)): i for i, e in enumerate(truth.edges.tolist())}
     edges = np.array([lookup[tuple(sorted(p))] for p in zip(chain[:-1].tolist(), chain[1:].tolist())])
     angle = {name: np.degrees(measures.dihedral_angles(m)[edges])
-             for name, m in (("noise-free", truth), ("noisy input", noisy), ("relaxed", plain.mesh),
-                             ("relaxed + crease fairing 10", faired.mesh))}
+             for name, m in (("noise-free", truth), ("noisy input", noisy), ("--crease-fairness 0", plain.mesh),
+                             ("default (crease fairing 10)", faired.mesh))}
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
     x = np.arange(len(edges))
-    for name, style in (("noise-free", "k-"), ("noisy input", "C7."), ("relaxed", "C1.-"),
-                        ("relaxed + crease fairing 10", "C0.-")):
+    for name, style in (("noise-free", "k-"), ("noisy input", "C7."), ("--crease-fairness 0", "C1.-"),
+                        ("default (crease fairing 10)", "C0.-")):
         top.plot(x, angle[name], style, label=name, lw=1, ms=3)
     top.set_ylabel("crease fold angle [deg]")
     top.legend(fontsize=8)
-    for name, color in (("relaxed", "C1"), ("relaxed + crease fairing 10", "C0")):
+    for name, color in (("--crease-fairness 0", "C1"), ("default (crease fairing 10)", "C0")):
         d = angle[name] - angle["noise-free"]
         bottom.plot(x, d, ".-", color=color, lw=1, ms=3, label=f"{name}: max |Δ| {np.abs(d).max():.2f}°")
     bottom.axhspan(-1, 1, color="C2", alpha=0.1, label="±1° goal")

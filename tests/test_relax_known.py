@@ -46,13 +46,17 @@ def test_perturbed_reflect_panel_relaxes_back(name, noise):
     assert np.array_equal(res.mesh.face_data["strip"], truth.face_data["strip"])
     dist = np.linalg.norm(res.mesh.vertices - truth.vertices, axis=1)
     assert dist.max() <= 6 * sigma
-    # no flattening: the crease keeps its fold (mean over the crease within a fraction of a degree),
-    # every crease edge within a few degrees (measured: <= 2.5° at 1 %, <= 7° at 3 %, see docs/relax.md)
+    # no flattening: every crease edge keeps its fold; at 1 % noise within 1° (issue 3; crease fairing is
+    # on by default; measured <= 0.41°), at 3 % within 2° (measured <= 1.26°); plain relaxation (fairing
+    # off) keeps the crease noise: within 3° per 1 % (measured <= 2°, docs/relax.md)
     ce = crease_edges(truth)
     d0 = measures.dihedral_angles(truth)[ce]
-    d1 = measures.dihedral_angles(res.mesh)[ce]
-    assert abs(np.degrees(np.mean(d1 - d0))) <= 0.5 * noise / 0.01
-    assert np.degrees(np.abs(d1 - d0)).max() <= 3.0 * noise / 0.01
+    change = np.degrees(np.abs(measures.dihedral_angles(res.mesh)[ce] - d0))
+    assert change.max() <= (1.0 if noise == 0.01 else 2.0)
+    plain = relax(noisy, crease_fairness=0.0)
+    assert plain.converged
+    plain_change = np.degrees(np.abs(measures.dihedral_angles(plain.mesh)[ce] - d0))
+    assert plain_change.max() <= 3.0 * noise / 0.01 and change.mean() < plain_change.mean()
     # boundary vertices move too (they are free by default)
     b = truth.boundary_vertex_mask
     assert np.linalg.norm(res.mesh.vertices[b] - noisy.vertices[b], axis=1).max() > 0.1 * sigma

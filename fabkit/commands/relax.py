@@ -11,7 +11,10 @@ HELP = """Relax a quad mesh toward a developable, planar-quad panel (paper §2.2
 (2π − Σθ) at every interior vertex and every face vertex on its face's best-fit plane.
 
 Dynamic relaxation with kinetic damping does the bulk of the work; a damped minimum-norm
-Gauss–Newton finish takes the panel to round-off. OUT has IN's vertex order, faces and data.
+Gauss–Newton finish takes the panel to round-off. Crease fairing (on by default, --crease-fairness 0
+turns it off) picks, among the panels that meet the tolerances, the one closest to IN with the
+smoothest crease curves, so input noise does not end up in the fold angles. An input already within
+tolerance is left as it is. OUT has IN's vertex order, faces and data.
 
 Exit codes: 0 converged; 1 did not converge (the measures reached are printed and reported; OUT is
 not written unless --write-unconverged); 2 bad input (non-manifold, NaN, a single face, no interior
@@ -21,7 +24,7 @@ examples:
   fabkit relax panel.obj -o relaxed.obj --report relax.json
   fabkit relax panel.obj -o relaxed.obj --boundary row-in-plane --tol-defect 1e-6
   fabkit relax panel.obj -o relaxed.obj --method newton --closeness 1 --fixed 0,12
-  fabkit relax scanned.obj -o relaxed.obj --crease-fairness 10
+  fabkit relax panel.obj -o relaxed.obj --crease-fairness 0   # no crease fairing
 """
 
 
@@ -63,8 +66,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--closeness", type=float, default=d.closeness,
                    help="weight pulling toward the input positions (default 0)")
     p.add_argument("--crease-fairness", type=float, default=d.crease_fairness, metavar="W",
-                   help="after converging, smooth the crease curves with weight W while keeping the "
-                        "tolerances (0: off; try 10; docs/relax.md 'Crease fairing')")
+                   help=f"smooth the crease curves with weight W while meeting the tolerances (default "
+                        f"{d.crease_fairness:g}; 0: off, the nearest developable panel; docs/relax.md 'Crease fairing')")
     p.add_argument("--edge-lengths", metavar="FILE.json", default=None,
                    help='keep these edges at these lengths: {"edges": [[u, v], ...], "lengths": [m, ...]} '
                         "(0-based OBJ vertex ids, metres)")

@@ -40,11 +40,12 @@ class RelaxOptions:
         Each adds the residual r_e = (|x_u − x_v| − L_e) / L_e with weight `edge_length_weight`;
         converged also needs max |r_e| <= `tol_edge_length`. Lets neighbouring panels keep their
         shared boundary edges (fabkit.panels).
-    crease_fairness: weight w of the crease-fairing phase (0: off; 10 is a good start). After the
-        relaxation converges, among the panels that meet the tolerances the one closest to the
-        input with the smoothest crease curves (third differences) is sought (fabkit.relax.fairing).
-        Removes the noise a least-squares relaxation leaves in the creases and thus in the fold
-        angles; creases come from face_data "strip" or, untagged, edges folded by more than 5°.
+    crease_fairness: weight w of the crease-fairing phase (default 10; 0: off). Among the panels that
+        meet the tolerances, the one closest to the input with the smoothest crease curves (third
+        differences, weight scaled with the crease resolution) is sought (fabkit.relax.fairing). Removes
+        the noise a least-squares relaxation leaves in the creases and so in the fold angles; creases
+        come from face_data "strip" or, untagged, edges folded by more than 5°, and stop at corners
+        turning by more than 30°. An input already within tolerance is left as it is.
     """
 
     method: str = "dr"
@@ -69,7 +70,7 @@ class RelaxOptions:
     edge_lengths: tuple = ()
     edge_length_weight: float = 1.0
     tol_edge_length: float = 1e-8
-    crease_fairness: float = 0.0
+    crease_fairness: float = 10.0
 
     def __post_init__(self):
         if self.method not in METHODS:

@@ -194,7 +194,7 @@ class Relaxer:
                     alt = self._newton(X, record, deadline)
                     statuses.append(f"fallback Newton from the input {alt.status}")
                 out = self._better(out, alt)
-        if o.crease_fairness > 0 and not fair_done and self._done(out.evaluation):
+        if o.crease_fairness > 0 and not fair_done and self._done(out.evaluation) and not self._done(ev0):
             if not self._fairing_possible():
                 statuses.append("crease fairing skipped: no crease of 4 or more vertices (no strip tags, no edge "
                                 "folded by more than 5 degrees)")
