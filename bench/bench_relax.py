@@ -1,8 +1,9 @@
 """Relaxation speed: time to tolerance on perturbed reflect panels (~600, ~2,500, ~10,000 vertices).
 
 Compared in one run (ratios, not absolute claims):
-- DR with kinetic damping + Gauss–Newton finish (the default) vs scipy L-BFGS on the same energy
-  (alone, and with the same finish) vs Gauss–Newton from the start;
+- DR with kinetic damping + crease fairing / Gauss–Newton finish (the default; "dr+newton") vs scipy
+  L-BFGS on the same energy (alone, and with the same finish) vs Gauss–Newton from the start, and vs
+  the default with crease fairing off (`crease_fairness=0`: plain Gauss–Newton finish);
 - DR + finish with every boundary edge kept at its unperturbed length (`edge_lengths`, the
   multi-panel workflow's use) vs the same without (~600 and ~2,500 only);
 - analytic vs finite-difference gradient (paper §2.3 reports 2–3×): time per gradient, and the DR
@@ -93,13 +94,14 @@ def main() -> dict:
             "lbfgs": dict(method="lbfgs", finish=False, max_iter=100000),
             "lbfgs+newton": dict(method="lbfgs"),
             "newton": dict(method="newton"),
+            "dr+newton, fairing off": dict(method="dr", crease_fairness=0.0),
         }
         results = {}
         for name, opts in runs.items():
             results[name] = r = _run(noisy, truth, sigma, **opts)
             rows.append({**base, "method": name, **r})
         dr = results["dr+newton"]["seconds"]
-        for name in ("lbfgs", "lbfgs+newton", "newton"):
+        for name in ("lbfgs", "lbfgs+newton", "newton", "dr+newton, fairing off"):
             r = results[name]
             rows.append({**base, "method": f"ratio {name} / dr+newton",
                          "seconds": r["seconds"] / dr if r["converged"] else float("nan"),

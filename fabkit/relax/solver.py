@@ -168,9 +168,16 @@ class Relaxer:
                 out = lbfgs(self.model, X, max_iter=budget, done=self._done, switch=switch, record=record,
                             deadline=deadline)
                 statuses.append(f"L-BFGS {out.status}")
-            if o.method != "newton" and out.status == "switch" and self._fairing_possible():
-                # fairing straight from the DR / L-BFGS hand-over: its steps also close the residuals, so
-                # the Gauss–Newton finish runs once, after it (measured 2x faster than fairing after it)
+            if o.method == "newton" and self._fairing_possible():
+                # Gauss–Newton only to the hand-over point, then fairing (as after DR)
+                first = gauss_newton(self.model, X, max_iter=int(o.newton_max_iter), done=finish_switch,
+                                     record=record, deadline=deadline)
+                statuses.append(f"Newton to the hand-over {first.status}")
+                if first.status == "converged" and first.evaluation.finite:
+                    out = PhaseOutcome(first.X, first.evaluation, first.iterations, "switch")
+            if out.status == "switch" and self._fairing_possible():
+                # fairing straight from the hand-over: its steps also close the residuals, so the
+                # Gauss–Newton finish runs once, after it (measured 2x faster than fairing after it)
                 faired = self._fair(out, record, deadline, statuses)
                 if faired is not None:
                     out, fair_done = faired, True
