@@ -203,8 +203,7 @@ class Relaxer:
                 out = self._better(out, alt)
         if o.crease_fairness > 0 and not fair_done and self._done(out.evaluation) and not self._done(ev0):
             if not self._fairing_possible():
-                statuses.append("crease fairing skipped: no crease of 4 or more vertices (no strip tags, no edge "
-                                "folded by more than 5 degrees)")
+                statuses.append("crease fairing skipped: no crease to fair")
             else:
                 faired = self._fair(out, record, deadline, statuses)
                 if faired is None:
