@@ -170,7 +170,8 @@ class _Extended:
 
 def fair_creases(model: EnergyModel, X0: np.ndarray, X_ref: np.ndarray, D: sp.csr_matrix, weight: float, *,
                  max_iter: int = 30, step_tol: float = 1e-7, stall_gain: float = 1e-3, stall_after: int = 2,
-                 cycle_after: int = 6, feasible: float = 1e-6, max_violation: float = 1e-3, record: Callable[[str, Evaluation, float], None] | None = None,
+                 cycle_after: int = 6, feasible: float = 1e-6, max_violation: float = 1e-3,
+                 done: Callable[[Evaluation], bool] | None = None, record: Callable[[str, Evaluation, float], None] | None = None,
                  deadline: float | None = None) -> PhaseOutcome:
     """SQP on F subject to the relaxation residuals, from X0 (see module docstring).
 
@@ -182,7 +183,8 @@ def fair_creases(model: EnergyModel, X0: np.ndarray, X_ref: np.ndarray, D: sp.cs
     nearly singular directions of the angle defect).
 
     Status "converged" when a step moved no vertex more than `step_tol` · L, or F fell by less than
-    `stall_gain` (relative) in `stall_after` steps in a row; "stalled" when no halving keeps the
+    `stall_gain` (relative) in `stall_after` steps in a row, or in one step that ends with `done`
+    (the relaxation tolerances) holding; "stalled" when no halving keeps the
     residuals finite and below `max_violation`; "cycling" when in `cycle_after` steps neither the
     largest residual reached a new low nor F a new low with all residuals below `feasible`;
     "max_iter" / "timeout" otherwise. The positions of the outcome are always finite; they need not
@@ -249,7 +251,7 @@ def fair_creases(model: EnergyModel, X0: np.ndarray, X_ref: np.ndarray, D: sp.cs
             record("fair", ev, 0.0)
         F_new = ext.objective(z)
         slow = slow + 1 if abs(F_old - F_new) <= stall_gain * F_old else 0
-        if moved <= step_tol * L or slow >= stall_after:
+        if moved <= step_tol * L or slow >= stall_after or (slow and done is not None and done(ev)):
             status = "converged"
             break
         r_max = float(np.abs(r_hat).max())

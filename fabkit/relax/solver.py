@@ -229,7 +229,7 @@ class Relaxer:
     def _fair(self, out: PhaseOutcome, record, deadline, statuses: list[str]) -> PhaseOutcome | None:
         """Crease fairing from `out`, then the Gauss–Newton finish if needed; None unless it converges."""
         fair = fair_creases(self.model, out.X, self.x_ref, self.fairness_operator, self.options.crease_fairness,
-                            record=record, deadline=deadline)
+                            done=self._done, record=record, deadline=deadline)
         statuses.append(f"crease fairing {fair.status} ({fair.iterations} steps)")
         if not self._done(fair.evaluation) and fair.evaluation.finite:
             fair = self._newton(fair.X, record, deadline, near=True)
