@@ -223,16 +223,7 @@ class FoldModel:
         Identity when the model was built with `from_mesh`; a permutation for files that order
         their edges differently.
         """
-        t = self.topology
-        n = max(self.n_vertices, 1)
-        ev = self.edges_vertices
-        keys = np.minimum(ev[:, 0], ev[:, 1]) * n + np.maximum(ev[:, 0], ev[:, 1])
-        mesh_keys = t.edges[:, 0] * n + t.edges[:, 1]
-        if len(mesh_keys) == 0:
-            return _readonly(np.full(len(keys), -1, dtype=np.int64))
-        pos = np.clip(np.searchsorted(mesh_keys, keys), 0, len(mesh_keys) - 1)
-        found = mesh_keys[pos] == keys
-        return _readonly(np.where(found, pos, -1).astype(np.int64))
+        return _readonly(self.topology.edge_ids(self.edges_vertices))
 
 
 def default_assignment(mesh: PolyMesh, edges_fold_angle: np.ndarray | None = None) -> np.ndarray:

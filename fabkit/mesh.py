@@ -224,6 +224,24 @@ class MeshTopology:
     def boundary_edge_mask(self) -> np.ndarray:
         return _readonly(np.any(self.edge_faces < 0, axis=1))
 
+    def edge_ids(self, pairs) -> np.ndarray:
+        """Edge id (index into `edges`) of each vertex pair (k, 2), in either order; -1 where no edge joins them.
+
+        `edges` is sorted by (lo, hi), so this is one binary search per pair.
+        """
+        P = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        out = np.full(len(P), -1, dtype=np.int64)
+        n = max(self.n_vertices, 1)
+        lo, hi = P.min(axis=1), P.max(axis=1)
+        valid = (lo >= 0) & (hi < self.n_vertices)
+        if not len(self.edges) or not valid.any():
+            return out
+        keys = self.edges[:, 0] * n + self.edges[:, 1]
+        want = lo[valid] * n + hi[valid]
+        pos = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
+        out[valid] = np.where(keys[pos] == want, pos, -1)
+        return out
+
     @cached_property
     def interior_edges(self) -> np.ndarray:
         return _readonly(np.flatnonzero(~self.boundary_edge_mask))

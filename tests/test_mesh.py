@@ -197,3 +197,13 @@ def test_with_data_merges_and_keeps_topology():
     m = grid(2, 1).with_data(face_data={"strip": np.array([0, 1])})
     m2 = m.with_data(face_data={"column": np.array([0, 0])}, vertex_data={"w": np.zeros(6)})
     assert set(m2.face_data) == {"strip", "column"} and m2.topology is m.topology
+
+
+def test_edge_ids_find_vertex_pairs_in_either_order():
+    m = PolyMesh(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [2, 1, 0]], float),
+                 [[0, 1, 2, 3], [1, 4, 5, 2]])
+    t = m.topology
+    ids = t.edge_ids(m.edges[::-1, ::-1])              # every edge, reversed pairs, reversed order
+    assert np.array_equal(ids, np.arange(m.n_edges)[::-1])
+    assert t.edge_ids([[0, 2], [3, 4], [0, 99], [-1, 0]]).tolist() == [-1, -1, -1, -1]   # diagonal, none, out of range
+    assert t.edge_ids(np.zeros((0, 2), int)).shape == (0,)

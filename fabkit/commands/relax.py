@@ -111,19 +111,14 @@ def _kept_edges(mesh, path, keep_boundary: bool) -> dict:
                          f"lengths for {len(pairs) if pairs.ndim == 2 else '?'} edges)", source=path)
     if not np.all(np.isfinite(pairs) & (pairs == np.round(pairs))):
         raise InputError('"edges" must hold integer vertex ids', source=path)
-    n = mesh.n_vertices
-    E = mesh.edges
-    key = E[:, 0] * n + E[:, 1]
-    order = np.argsort(key)
-    for (u, v), length in zip(pairs.astype(np.int64).tolist(), lengths.tolist()):
-        lo, hi = min(u, v), max(u, v)
-        i = np.searchsorted(key[order], lo * n + hi) if 0 <= lo and hi < n else len(key)
-        if i >= len(key) or key[order][i] != lo * n + hi:
+    ids = mesh.topology.edge_ids(pairs.astype(np.int64))
+    for (u, v), e, length in zip(pairs.astype(np.int64).tolist(), ids.tolist(), lengths.tolist()):
+        if e < 0:
             raise InputError(f"[{u}, {v}] is not an edge of {mesh.n_vertices}-vertex mesh", source=path)
         if not (np.isfinite(length) and length > 0):
             raise InputError(f"edge [{u}, {v}]: length must be a positive number of metres, got {length}",
                              source=path)
-        kept[int(order[i])] = float(length)
+        kept[e] = float(length)
     return kept
 
 

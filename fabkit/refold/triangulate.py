@@ -128,13 +128,8 @@ def triangulate_panel(mesh: PolyMesh, diagonal: str = "short") -> TriangulatedPa
         edge_column = np.minimum(column[f0], column[f1])
 
     # map to the polygon mesh's edges (same sorted vertex pair)
-    n = mesh.n_vertices
-    pkeys = t.edges[:, 0] * n + t.edges[:, 1]
-    tkeys = topo.edges[:, 0] * n + topo.edges[:, 1]
-    pos = np.searchsorted(pkeys, tkeys)
-    pos = np.minimum(pos, len(pkeys) - 1)
-    found = pkeys[pos] == tkeys
-    poly_edge = np.where(found, pos, -1)
+    poly_edge = t.edge_ids(topo.edges)
+    found = poly_edge >= 0
     if np.any(found == diag):
         e = int(np.flatnonzero(found == diag)[0])
         raise InputError(f"triangulation edge {topo.edges[e].tolist()} is both a polygon edge and a diagonal "

@@ -94,7 +94,7 @@ def third_differences(chains: list[np.ndarray], n_vertices: int,
     h_ref the chain's length / `REFERENCE_SEGMENTS`: a weight w then smooths about as much at every
     resolution (the integral of |c‴|² along the crease is about Σ |Δ³c|² / h⁵; the fourth power
     measured best). Measured on reflect panels at 1 % noise, w = 10: unscaled, the largest crease fold
-    change was 0.1–0.4° at 12–48 columns but 0.7° at 96; scaled it is 0.03–0.3° throughout. Chains
+    change was 0.1–0.4° at 12–48 columns but 0.7° at 96; scaled it is 0.02–0.41° throughout. Chains
     with fewer than four distinct vertices have no third difference and add no row.
     """
     rows: list[np.ndarray] = []

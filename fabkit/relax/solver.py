@@ -183,7 +183,8 @@ class Relaxer:
                     out, fair_done = faired, True
             if not fair_done and (o.method == "newton" or (o.finish and out.status in ("switch", "stalled",
                                                                                          "max_iter"))):
-                from_input = o.method == "newton" or out.status == "diverged"
+                # Newton from the start restarts from the input unless it already reached the hand-over
+                from_input = (o.method == "newton" and out.status != "switch") or out.status == "diverged"
                 nt = self._newton(X if from_input else out.X, record, deadline, near=not from_input)
                 statuses.append(f"Newton {nt.status}")
                 out = self._better(out, nt)
