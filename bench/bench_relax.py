@@ -24,7 +24,8 @@ from bench.common import best_time, report
 from fabkit.generate import reflect_panel
 from fabkit.relax import Relaxer
 from fabkit.relax.dynamic import dynamic_relaxation
-from fabkit.relax.energy import Evaluation, colored_fd_gradient
+from fabkit.relax.energy import Evaluation
+from fabkit.relax.fd_gradient import colored_fd_gradient
 
 SIZES = {"~600": (24, 12), "~2,500": (48, 25), "~10,000": (96, 50)}
 NOISE = 0.01

@@ -8,7 +8,8 @@ from fabkit import measures
 from fabkit.errors import InputError
 from fabkit.generate import reflect_panel
 from fabkit.relax import RelaxOptions, Relaxer, relax
-from fabkit.relax.energy import EnergyModel, colored_fd_gradient
+from fabkit.relax.energy import EnergyModel
+from fabkit.relax.fd_gradient import colored_fd_gradient
 
 from relax_meshes import perturbed
 from test_relax_gradients import REL, _fd_gradient, _fd_jacobian, _mixed_mesh, _rel

@@ -4,7 +4,8 @@ import pytest
 
 from fabkit.generate import reflect_panel
 from fabkit.mesh import PolyMesh
-from fabkit.relax.energy import EnergyModel, colored_fd_gradient
+from fabkit.relax.energy import EnergyModel
+from fabkit.relax.fd_gradient import colored_fd_gradient
 
 from relax_meshes import perturbed
 

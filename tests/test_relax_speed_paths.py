@@ -24,7 +24,7 @@ def test_reused_ordering_solves_like_a_fresh_factorisation():
     r, J = solver.model.residuals_and_jacobian(X)
     JJt = (J @ J.T).tocsr()
     scale = float(JJt.diagonal().mean())
-    factor = nw._SPDFactor()
+    factor = nw.SPDFactor()
     for mu in (1e-3 * scale, 1e-9 * scale):   # the first call orders, the second reuses the order
         solve = factor(JJt, mu)
         assert solve is not None
@@ -36,7 +36,7 @@ def test_reused_ordering_solves_like_a_fresh_factorisation():
 
 def test_singular_system_gives_none_with_and_without_a_kept_ordering():
     A = sp.csr_matrix((4, 4))
-    factor = nw._SPDFactor()
+    factor = nw.SPDFactor()
     assert factor(A, 0.0) is None
     factor.order = np.array([2, 0, 3, 1])
     assert factor(A, 0.0) is None
@@ -70,13 +70,13 @@ def test_rejected_steps_reuse_the_factorisation(monkeypatch, radius0):
     point, so attempts - accepted steps counts the rejections.
     """
     calls = {"factor": 0, "trials": 0}
-    factor_call = nw._SPDFactor.__call__
+    factor_call = nw.SPDFactor.__call__
 
     def counting(self, JJt, mu):
         calls["factor"] += 1
         return factor_call(self, JJt, mu)
 
-    monkeypatch.setattr(nw._SPDFactor, "__call__", counting)
+    monkeypatch.setattr(nw.SPDFactor, "__call__", counting)
     solver, X, truth, sigma = _model_and_start(columns=16, rows=8, noise=0.02, seed=1)
     model = solver.model
     real = model.residuals_and_jacobian

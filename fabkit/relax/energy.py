@@ -457,6 +457,23 @@ class EnergyModel:
 
     # ------------------------------------------------------------------------------------------
     # free-coordinate vector <-> positions
+    def row_vertices(self) -> np.ndarray:
+        """For each residual row, the vertices it depends on, (n_rows, width) int64, -1 padded."""
+        t = self.topology
+        fverts, foff = t.vertex_faces
+        star_sets = [np.unique(np.concatenate([t.face(f) for f in fverts[foff[v]:foff[v + 1]]]))
+                     for v in self.defect_vertices]
+        width = max([1] + [len(s) for s in star_sets] + [g.k for g in self.groups])
+        out = np.full((self.n_rows, width), -1, dtype=np.int64)
+        for i, s in enumerate(star_sets):  # defect rows: the vertex star
+            out[i, :len(s)] = s
+        for g, off in zip(self.groups, self._group_row_offset):
+            nr = self._planarity_rows(g)
+            out[off:off + g.m * nr, :g.k] = np.repeat(g.faces, nr, axis=0)
+        if self.n_edge:
+            out[self._edge_row_offset:self._edge_row_offset + self.n_edge, :2] = self.edge_pairs
+        return out
+
     def pack(self, X: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(X[self.free_mask]).reshape(-1)
 
@@ -464,92 +481,3 @@ class EnergyModel:
         X = np.array(X_template, dtype=np.float64, copy=True)
         X[self.free_mask] = y.reshape(-1, 3)
         return X
-
-
-def colored_fd_gradient(model: EnergyModel, X: np.ndarray, h: float | None = None) -> np.ndarray:
-    """Central finite-difference gradient of E_dev + E_plan (+ E_edge), vectorised by vertex colouring.
-
-    Vertices with disjoint stars (distance-2 colouring of the face-vertex graph) are perturbed at the
-    same time; each residual then depends on at most one perturbed vertex, so per-residual differences
-    can be attributed exactly. Costs 6 residual evaluations per colour. Used by the benchmark
-    (analytic vs numerical gradient, paper §2.3) and as a cross-check in tests.
-    """
-    h = 1e-6 * model.L if h is None else h
-    colors = _distance2_coloring(model)
-    r0, _ = model.residuals_and_jacobian(X, need_jacobian=False)
-    G = np.zeros((model.n, 3))
-    owner_rows = _row_vertices(model)  # (n_rows, max verts) vertex ids, -1 padded
-    for col in range(colors.max() + 1):
-        members = colors == col
-        members &= model.free_mask
-        if not members.any():
-            continue
-        # for each row, the (unique) perturbed vertex it touches, if any
-        touched = np.where(members[np.maximum(owner_rows, 0)] & (owner_rows >= 0), owner_rows, -1).max(axis=1)
-        has = touched >= 0
-        for k in range(3):
-            Xp = X.copy()
-            Xm = X.copy()
-            Xp[members, k] += h
-            Xm[members, k] -= h
-            rp, _ = model.residuals_and_jacobian(Xp, need_jacobian=False)
-            rm, _ = model.residuals_and_jacobian(Xm, need_jacobian=False)
-            dE = 0.5 * (rp * rp - rm * rm) / (2 * h)
-            G[:, k] += np.bincount(touched[has], weights=dE[has], minlength=model.n)
-    return G
-
-
-def _row_vertices(model: EnergyModel) -> np.ndarray:
-    """For each residual row, the vertices it depends on (-1 padded)."""
-    rows = []
-    # defect rows: the vertex star (vertices of every face at the vertex)
-    t = model.topology
-    fverts, foff = t.vertex_faces
-    width = 1
-    star_sets = []
-    for v in model.defect_vertices:
-        fs = fverts[foff[v]:foff[v + 1]]
-        s = np.unique(np.concatenate([t.face(f) for f in fs]))
-        star_sets.append(s)
-        width = max(width, len(s))
-    for g in model.groups:
-        width = max(width, g.k)
-    out = np.full((model.n_rows, width), -1, dtype=np.int64)
-    for i, s in enumerate(star_sets):
-        out[i, :len(s)] = s
-    for g, off in zip(model.groups, model._group_row_offset):
-        nr = model._planarity_rows(g)
-        block = np.repeat(g.faces, nr, axis=0)
-        out[off:off + g.m * nr, :g.k] = block
-    if model.n_edge:
-        out[model._edge_row_offset:model._edge_row_offset + model.n_edge, :2] = model.edge_pairs
-    del rows
-    return out
-
-
-def _distance2_coloring(model: EnergyModel) -> np.ndarray:
-    """Greedy colouring so that no face and no vertex star holds two vertices of the same colour."""
-    t = model.topology
-    n = model.n
-    # neighbours: vertices sharing a face, and vertices two faces apart through a defect vertex star
-    fverts, foff = t.vertex_faces
-    nbr = [set() for _ in range(n)]
-    for f in range(t.n_faces):
-        vs = t.face(f).tolist()
-        for a in vs:
-            nbr[a].update(vs)
-    star_nbr = [set() for _ in range(n)]
-    for v in model.defect_vertices.tolist():
-        s = set()
-        for f in fverts[foff[v]:foff[v + 1]].tolist():
-            s.update(t.face(f).tolist())
-        for a in s:
-            star_nbr[a].update(s)
-    colors = np.full(n, -1, dtype=np.int64)
-    for v in range(n):
-        used = {colors[u] for u in (nbr[v] | star_nbr[v]) if colors[u] >= 0}
-        c = 0
-        while c in used:
-            c += 1
-        colors[v] = c
-    return colors

@@ -39,7 +39,7 @@ from fabkit.cutfiles.creases import chain_edges, crease_assignment
 from fabkit.mesh import PolyMesh
 from fabkit.relax.dynamic import PhaseOutcome
 from fabkit.relax.energy import EnergyModel, Evaluation
-from fabkit.relax.newton import _SPDFactor
+from fabkit.relax.newton import SPDFactor
 
 __all__ = ["crease_chains", "third_differences", "fair_creases"]
 
@@ -204,7 +204,7 @@ def fair_creases(model: EnergyModel, X0: np.ndarray, X_ref: np.ndarray, D: sp.cs
     F_best, r_best, since_best = ext.objective(z), np.inf, 0
     status = "max_iter"
     it = 0
-    factor = _SPDFactor()     # one Ĵ pattern: the first ordering serves every step
+    factor = SPDFactor()     # one Ĵ pattern: the first ordering serves every step
     for it in range(1, max_iter + 1):
         JJt = (J_hat @ J_hat.T).tocsr()
         scale = max(float(JJt.diagonal().mean()), 1e-300)

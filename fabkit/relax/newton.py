@@ -17,41 +17,12 @@ step with the second directional derivative of r, one extra residual and the sam
 a second-order correction from the trial point cut the Gauss–Newton steps at ~2,500 vertices from 33
 to 16 (measured on the reflect panel at 1 % noise).
 
-Why it crawls (measured on the reflect panel): J has singular values down to ~1e-6 of the largest,
-all in combinations of angle-defect rows; the linear solves are accurate (relative residual ≤ 1e-7)
-but the minimum-norm step moves ~1e-3 L along those directions even when ‖r‖ ~ 1e-7, and the
-second-order terms of r then spoil it (ρ < 0 for the full step; the best step along the direction is
-about half of it). What the factorisation budget goes to, from the measurements of issue 3 (DR + this
-finish, reflect panels at σ = 1 % noise, GN steps summed over seeds):
-
-* a rejected step only shrinks the trust region and reuses the factorisation and direction (the
-  matrix is the same: μ changes at the next step only); it used to refactorise: 18 → 14
-  factorisations at ~2,500 vertices, 32 → 22 at ~10,000 (seed 0, same iterates);
-* the region halves on a rejection and grows only at ρ > 0.9 (was: quartered, grown at ρ > 0.5),
-  which stops the reject / accept-a-quarter cycle: seeds 0–2, 2,500 V 46 → 32 steps, 10,000 V
-  82 → 52, same displacement;
-* `corrections` > 1: second-order corrections at every trial point, further ones (each one solve and
-  one residual with the same factorisation) while each cuts ‖r‖² by 30 % (default 1: one, only at
-  ρ < 0.75): seeds 0–5, 2,500 V 75 → 58, 10,000 V 102 → 77, same displacement. The solver asks for
-  them (4) only for the finish after DR / L-BFGS: Gauss–Newton from the raw input with them drifted
-  at ~10,000 vertices (seeds 0–2: 9.6, 7.5, 9.2σ from the unperturbed panel instead of 4.4, 4.1, 4.6σ;
-  the second step, from ‖r‖∞ ~ 2e-4, made the jump; gating by ‖r‖∞ or capping each correction's move
-  at a quarter of the step still gave 5.5–6.4σ).
-
-Tried and measured without gain: "chord" steps with the previous factorisation at the new point
-(with the new or the old J: the weak directions change too much, the steps were rejected or cut ‖r‖²
-by < 30 %); stronger or weaker damping (γ = 0.1 … 1e5: fewer steps only with γ ≤ 0.3 and then 10–13σ
-from the unperturbed panel, more steps above 10); scaling the planarity rows (× 0.3: 12σ; × 3, 10:
-more steps); extending an accepted short step along the same direction; the DR hand-over point
-(finish_below 0.05, 0.003: same step counts).
+Why it crawls, what cut the number of steps and what was tried without gain: docs/relax.md,
+"Gauss–Newton finish: measurements".
 
 The linear algebra is scipy.sparse: the SPD system J Jᵀ + μI has one row per residual (about
 n_interior + n_faces, fewer than the 3n coordinates); SuperLU factorises it with a minimum-degree
-ordering on Jᵀ+J (measured fastest of SuperLU's orderings, and 3× faster than the 3n × 3n JᵀJ form),
-computed by the first factorisation and reused by the later ones. Measured slower at ~10,000 vertices:
-COLAMD and MMD on AᵀA (2.6× the fill), reverse Cuthill–McKee (2.4× fill; banded Cholesky of the RCM
-form 0.24 s vs 0.16 s), a geometric nested dissection computed from the residual positions (1.2–1.3×
-fill), CHOLMOD through cholespy (2× slower), other SuperLU relax / panel_size settings (within noise).
+ordering on Jᵀ+J, computed by the first factorisation and reused by the later ones (`SPDFactor`).
 """
 from __future__ import annotations
 
@@ -67,7 +38,7 @@ from fabkit.relax.dynamic import PhaseOutcome
 from fabkit.relax.energy import EnergyModel, Evaluation
 
 
-class _SPDFactor:
+class SPDFactor:
     """SuperLU factorisations of J Jᵀ + μI (symmetric mode) for one Jacobian pattern.
 
     The first factorisation orders with minimum degree on Aᵀ+A; later ones reuse that ordering
@@ -132,7 +103,7 @@ def gauss_newton(model: EnergyModel, X0: np.ndarray, *, max_iter: int, done: Cal
     status = "max_iter"
     it = 0
     r, J = model.residuals_and_jacobian(X)
-    factor = _SPDFactor()
+    factor = SPDFactor()
     boost = 1.0
     for it in range(1, max_iter + 1):
         phi = float(r @ r)
