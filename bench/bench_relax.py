@@ -10,7 +10,7 @@ Compared in one run (ratios, not absolute claims):
   phase to max defect/planarity <= 1e-3 driven by each gradient (smallest size only: FD is slow).
 
 Input: `reflect_panel` with Gaussian noise of σ = 1 % of the mean edge length on every coordinate
-(seed 0); tolerance 1e-8 rad / 1e-8. Target (issue 3): ~2,500 vertices in <= 1 s on one core, cost
+(seed 0); tolerance 1e-8 rad / 1e-8. Target: ~2,500 vertices in <= 1 s on one core, cost
 about linear in size. Writes bench/results/bench_relax.json.
 """
 from __future__ import annotations

@@ -46,7 +46,7 @@ def test_perturbed_reflect_panel_relaxes_back(name, noise):
     assert np.array_equal(res.mesh.face_data["strip"], truth.face_data["strip"])
     dist = np.linalg.norm(res.mesh.vertices - truth.vertices, axis=1)
     assert dist.max() <= 6 * sigma
-    # no flattening: every crease edge keeps its fold; at 1 % noise within 1° (issue 3; crease fairing is
+    # no flattening: every crease edge keeps its fold; at 1 % noise within 1° (crease fairing is
     # on by default; measured <= 0.41°), at 3 % within 2° (measured <= 1.26°); plain relaxation (fairing
     # off) keeps the crease noise: within 3° per 1 % (measured <= 2°, docs/relax.md)
     ce = crease_edges(truth)

@@ -1,4 +1,4 @@
-"""The code paths added for relaxation speed (issue 3): reused ordering, geometry cache, cheap rejections."""
+"""The code paths added for relaxation speed: reused ordering, geometry cache, cheap rejections."""
 import numpy as np
 import pytest
 import scipy.sparse as sp
