@@ -36,6 +36,7 @@ from fabkit.io.jsonfile import load_json
 from robot import kinematics as K
 
 __all__ = ["FORMAT", "OLD_FORMATS", "OPS", "MOVES", "Waypoint", "Toolpath", "canonical_json", "document_sha256",
+           "fold_file_of",
            "PlanOptions", "PlanningError", "PlanResult", "grip_offset", "tcp_targets", "plan_toolpath", "plan_panel",
            "check_toolpath_kinematics"]
 
@@ -253,6 +254,20 @@ def _check_waypoint(w, i, fail) -> None:
         fail(f"{where}.r: expected a number >= 0")
     if not (isinstance(w["state"], int) and not isinstance(w["state"], bool) and w["state"] >= 0):
         fail(f"{where}.state: expected an integer >= 0")
+
+
+def fold_file_of(tp: Toolpath, base_dir: str | Path | None = None) -> Path | None:
+    """The FOLD file a toolpath's `source` names (a string value ending in .fold), resolved against
+    `base_dir` (the PATH.json's folder) when relative and there; None if the source names none."""
+    src = tp.source
+    values = [src] if isinstance(src, str) else list(src.values()) if isinstance(src, dict) else []
+    for v in values:
+        if isinstance(v, str) and v.lower().endswith(".fold"):
+            p = Path(v)
+            if not p.is_absolute() and base_dir is not None and (Path(base_dir) / p).exists():
+                return Path(base_dir) / p
+            return p
+    return None
 
 
 _PLANNER_NAMES = ("PlanOptions", "PlanningError", "PlanResult", "grip_offset", "tcp_targets", "plan_toolpath",

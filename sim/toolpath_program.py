@@ -13,6 +13,7 @@ import numpy as np
 
 from fabkit.errors import InputError
 from robot.cell import file_sha256, pose_to_matrix
+from robot.toolpath import fold_file_of
 from sim.interpolate import Program
 from sim.panel import DEFAULT_THICKNESS, PanelModel, check_fold_coordinates, panel_from_fold
 
@@ -66,20 +67,6 @@ def fold_progress(states: np.ndarray, ops, positions: np.ndarray) -> np.ndarray:
                 out[i + 1:nxt] = states[i] + np.cumsum(seg)[:-1] / total
         i = j + 1
     return out
-
-
-def fold_file_of(tp, base_dir=None):
-    """The FOLD file a toolpath's `source` names (a string value ending in .fold), resolved against
-    `base_dir` (the PATH.json's folder) when relative; None if the source names none."""
-    src = tp.source
-    values = [src] if isinstance(src, str) else list(src.values()) if isinstance(src, dict) else []
-    for v in values:
-        if isinstance(v, str) and v.lower().endswith(".fold"):
-            p = Path(v)
-            if not p.is_absolute() and base_dir is not None and (Path(base_dir) / p).exists():
-                return Path(base_dir) / p
-            return p
-    return None
 
 
 def grip_face_of(tp):
