@@ -211,6 +211,7 @@ class RTDEWorker:
             child.close()
         self._conn = Connection(mine.detach())
         self.dead_reason: str | None = None
+        self._log({"t": round(time.time(), 4), "worker": "started", "pid": self.proc.pid})
 
     @property
     def pid(self) -> int:
