@@ -18,7 +18,8 @@ of milliseconds while the arm moves, so the kicks stop — and the controller st
 the arm within 1 / watchdog_hz — when the parent dies or hangs, the worker dies or hangs, or the
 link drops.
 
-Requests are `(method, args)`; the worker's methods are the `_Channels` methods below.
+Requests are `(seq, method, args)`, replies `(seq, "ok", result)` or `(seq, "error", text, trace)`;
+the worker's methods are the `_Channels` methods below.
 """
 from __future__ import annotations
 
@@ -179,17 +180,17 @@ def serve(fd: int, host: str) -> None:
     ch = _Channels(host)
     while True:
         try:
-            method, args = conn.recv()
+            seq, method, args = conn.recv()
         except (EOFError, OSError):
             os._exit(0)  # the parent is gone: no more kicks, the controller's watchdog stops the arm
         try:
             ch.kick()
             result = getattr(ch, method)(*args)
-            conn.send(("ok", result))
+            conn.send((seq, "ok", result))
         except (EOFError, OSError, BrokenPipeError):
             os._exit(0)
         except Exception as exc:  # ur_rtde errors go back to the parent as CallError
-            conn.send(("error", f"{type(exc).__name__}: {exc}", traceback.format_exc(limit=2)))
+            conn.send((seq, "error", f"{type(exc).__name__}: {exc}", traceback.format_exc(limit=2)))
 
 
 class RTDEWorker:
@@ -210,6 +211,7 @@ class RTDEWorker:
         finally:
             child.close()
         self._conn = Connection(mine.detach())
+        self._seq = 0
         self.dead_reason: str | None = None
         self._log({"t": round(time.time(), 4), "worker": "started", "pid": self.proc.pid})
 
@@ -226,24 +228,29 @@ class RTDEWorker:
         if self.dead_reason is not None:
             raise WorkerError(self.dead_reason)
         t0 = time.monotonic()
+        self._seq += 1
+        seq = self._seq
         self._log({"t": round(time.time(), 4), "call": method, "args": args})
         try:
-            self._conn.send((method, args))
+            self._conn.send((seq, method, args))
             deadline = t0 + timeout
-            while not self._conn.poll(min(0.05, max(0.0, deadline - time.monotonic()))):
-                if self.proc.poll() is not None:
-                    self._die(f"ur_rtde worker died during {method} ({self._exit_text()})")
-                if time.monotonic() >= deadline:
-                    self._die(f"ur_rtde call {method} did not return within {timeout:g} s")
-            reply = self._conn.recv()
+            while True:  # replies to calls abandoned by an exception (Ctrl-C) are skipped
+                while not self._conn.poll(min(0.05, max(0.0, deadline - time.monotonic()))):
+                    if self.proc.poll() is not None:
+                        self._die(f"ur_rtde worker died during {method} ({self._exit_text()})")
+                    if time.monotonic() >= deadline:
+                        self._die(f"ur_rtde call {method} did not return within {timeout:g} s")
+                reply = self._conn.recv()
+                if reply[0] == seq:
+                    break
         except (EOFError, OSError, BrokenPipeError):
             self._die(f"ur_rtde worker died during {method} ({self._exit_text()})")
         dt = time.monotonic() - t0
-        if reply[0] == "ok":
-            self._log({"t": round(time.time(), 4), "reply": method, "result": reply[1], "dt": round(dt, 4)})
-            return reply[1]
-        self._log({"t": round(time.time(), 4), "reply": method, "error": reply[1], "dt": round(dt, 4)})
-        raise CallError(reply[1])
+        if reply[1] == "ok":
+            self._log({"t": round(time.time(), 4), "reply": method, "result": reply[2], "dt": round(dt, 4)})
+            return reply[2]
+        self._log({"t": round(time.time(), 4), "reply": method, "error": reply[2], "dt": round(dt, 4)})
+        raise CallError(reply[2])
 
     def _exit_text(self) -> str:
         try:

@@ -440,8 +440,6 @@ class _Sender:
                 self.call("connect_io", timeout=s.connect_timeout_s)
             self._control = True  # from here on a fault stops the arm
             self.call("connect_control", s.rt_priority, timeout=s.connect_timeout_s)
-            if not self.call("arm_watchdog", s.watchdog_hz):
-                raise _Fault("the controller refused to arm the RTDE watchdog")
             if not self.call("set_tcp", list(self.tp.tcp)):
                 raise _Fault("the controller refused the toolpath's TCP")
             active = self.call("get_tcp")
@@ -449,6 +447,9 @@ class _Sender:
                 raise _Fault(f"the controller's active TCP {active} is not the toolpath's {list(self.tp.tcp)}")
             if self._grip() is not None:
                 self.set_gripper(self.gripper_state_at(s.resume_from))
+            # from the first move on, the controller stops the program unless every poll kicks it
+            if not self.call("arm_watchdog", s.watchdog_hz):
+                raise _Fault("the controller refused to arm the RTDE watchdog")
             # chunks end at grip/release waypoints (the arm stops there, the gripper switches)
             switch = [k for k, w in enumerate(self.wps) if w.op in ("grip", "release")]
             start, first = s.resume_from, True

@@ -59,7 +59,7 @@ def test_send_runs_the_demo_toolpath_to_completion(standin, host, job, tmp_path,
     calls = [e["call"] for e in events if "call" in e]
     # read-only first (model, remote control, where the arm is), then changes, the upload, the watchdog
     assert calls[:5] == ["connect_dashboard", "dashboard", "dashboard", "connect_receive", "state"]
-    assert calls.index("connect_control") < calls.index("arm_watchdog") < calls.index("move_path")
+    assert calls.index("connect_control") < calls.index("set_tcp") < calls.index("arm_watchdog") < calls.index("move_path")
     assert calls.count("move_path") == 4 and "set_tcp" in calls and calls[-2:] == ["stop_script", "disconnect"]
     assert events[0]["step"] == "cleared" and events[0]["toolpath_sha256"] == tp.sha256
     assert rep["toolpath_sha256"] == tp.sha256 and 0 < rep["recheck_s"]
