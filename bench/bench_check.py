@@ -73,8 +73,8 @@ def _baseline(cell, panel, Q) -> float:
 
 def main() -> dict:
     from robot.cell import load_cell
-    from sim.check import CheckSettings, _collision_events, _limit_events, _singular_events, check_program, \
-        interpolate_program
+    from sim.check import CheckSettings, check_program, interpolate_program
+    from sim.check_events import collision_events, limit_events, singular_events
     from sim.model import build_cell_model
     from sim.programs import sweep_program
 
@@ -93,9 +93,9 @@ def main() -> dict:
         built = build_cell_model(cell, panel)  # once per cell; not part of the per-configuration rate
 
         def batched():
-            _collision_events(cell, panel, dense, built)
-            _limit_events(cell.model, dense)
-            _singular_events(cell.model, dense, CheckSettings())
+            collision_events(cell, panel, dense, built)
+            limit_events(cell.model, dense)
+            singular_events(cell.model, dense, CheckSettings())
 
         t_batched = best_time(batched, repeat=3)
         t_base = min(_baseline(cell, panel, dense.q) for _ in range(2))

@@ -14,9 +14,11 @@ sits there) to world; obstacles are in world. Shape sizes follow MuJoCo: box = h
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -27,13 +29,14 @@ from fabkit.errors import InputError
 from robot.kinematics import MODELS, URModel, get_model
 
 __all__ = ["Cell", "RobotMount", "Tool", "Shape", "Limits", "load_cell", "parse_cell", "pose_to_matrix",
-           "matrix_to_pose", "SHAPE_KINDS"]
+           "matrix_to_pose", "file_sha256", "SHAPE_KINDS"]
 
 SHAPE_KINDS = ("box", "cylinder", "capsule", "sphere")
 #: ur_rtde argument bounds (reference ur-rtde.md): a cell may not ask for more than these.
 MAX_TCP_SPEED = 3.0        # m/s
 MAX_TCP_ACCEL = 150.0      # m/s^2
 MAX_JOINT_ACCEL = 40.0     # rad/s^2
+MAX_BLEND = 2.0            # m
 MAX_CLEARANCE = 0.5        # m: more would make every cell "in collision"
 MAX_TOOL_OUTPUT = {"tool": 1, "standard": 7}  # tool DO 0-1, standard (controller box) DO 0-7
 #: Slack on catalogue joint speeds so that 3.14159 passes for 180 deg/s (rad/s).
@@ -94,18 +97,22 @@ class Tool:
 @dataclass(frozen=True)
 class Limits:
     """Motion limits: TCP speed [m/s] and acceleration [m/s^2], joint speeds [rad/s] (6), joint
-    acceleration [rad/s^2], and the clearance [m] every robot/tool part keeps from obstacles."""
+    acceleration [rad/s^2], the clearance [m] every robot/tool part keeps from obstacles, and the
+    largest blend radius [m] the sender passes (optional in the file, default 0.02)."""
 
     tcp_speed: float
     tcp_accel: float
     joint_speed: tuple[float, ...]
     joint_accel: float
     clearance: float
+    blend_radius: float = 0.02
 
 
 @dataclass(frozen=True, eq=False)
 class Cell:
-    """A robot cell (module docstring); `fixture` is the panel frame -> world 4x4."""
+    """A robot cell (module docstring); `fixture` is the panel frame -> world 4x4; `sha256` the
+    hash of the cell file's bytes (`load_cell`) or of the canonical JSON of the parsed table
+    (`parse_cell`): toolpaths and check reports record it, the sender compares it."""
 
     name: str
     description: str
@@ -115,6 +122,7 @@ class Cell:
     obstacles: tuple[Shape, ...]
     limits: Limits
     source: str
+    sha256: str = ""
 
     @property
     def model(self) -> URModel:
@@ -290,6 +298,7 @@ def parse_cell(data: dict, source: str) -> Cell:
         joint_speed=tuple(lr.vector("joint_speed", 6, lo=0.0, lo_open=True, unit="rad/s")),
         joint_accel=lr.number("joint_accel", lo=0.0, lo_open=True, hi=MAX_JOINT_ACCEL, unit="rad/s^2"),
         clearance=lr.number("clearance", lo=0.0, hi=MAX_CLEARANCE, unit="m"),
+        blend_radius=lr.number("blend_radius", required=False, default=0.02, lo=0.0, hi=MAX_BLEND, unit="m"),
     )
     for i, (v, vmax) in enumerate(zip(limits.joint_speed, urm.joint_speed_max)):
         if v > vmax + SPEED_SLACK:
@@ -298,7 +307,13 @@ def parse_cell(data: dict, source: str) -> Cell:
     top.done()
     return Cell(name=name, description=description, robot=RobotMount(model, base_pose, home),
                 tool=Tool(tcp=tcp, shapes=shapes, grip_output=grip, grip_output_kind=kind),
-                fixture=fixture, obstacles=obstacles, limits=limits, source=source)
+                fixture=fixture, obstacles=obstacles, limits=limits, source=source, sha256=_data_sha256(data))
+
+
+def _data_sha256(data: dict) -> str:
+    """sha256 of a parsed cell table's canonical JSON (TOML dates and times as text)."""
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 def load_cell(path: str | Path) -> Cell:
@@ -314,4 +329,9 @@ def load_cell(path: str | Path) -> Cell:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"not valid TOML: {exc}", source=str(path)) from None
-    return parse_cell(data, str(path))
+    return replace(parse_cell(data, str(path)), sha256=hashlib.sha256(text.encode("utf-8")).hexdigest())
+
+
+def file_sha256(path: str | Path) -> str:
+    """sha256 of a file's bytes (cell and FOLD files are identified by it)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()

@@ -32,7 +32,8 @@ import numpy as np
 
 __all__ = [
     "URModel", "MODELS", "get_model", "fk", "fk_tcp", "fk_frames", "jacobian", "ik", "ik_raw",
-    "pose_error", "select_nearest", "nearest_index", "branch_text", "shoulder_term", "unwrap_near", "wrapped_distance", "branch_signs", "branch_label",
+    "pose_error", "select_nearest", "nearest_index", "branch_text", "shoulder_term", "unwrap_near", "wrapped_distance",
+    "wrap_angle", "branch_signs", "branch_label",
     "SingularityFactors", "singularity_factors", "quiet_stdout", "IK_TOL_POS", "IK_TOL_ROT",
 ]
 
@@ -243,9 +244,12 @@ def quiet_stdout() -> Iterator[None]:
 
 # ---- inverse kinematics ------------------------------------------------------------------------
 
-def _wrap(q: np.ndarray) -> np.ndarray:
+def wrap_angle(q: np.ndarray) -> np.ndarray:
     """Angles wrapped to [-pi, pi)."""
     return (q + np.pi) % _TWO_PI - np.pi
+
+
+_wrap = wrap_angle
 
 
 def ik_raw(model: URModel | str, T_flange: np.ndarray) -> np.ndarray:

@@ -1,20 +1,36 @@
-"""ur_rtde in a supervised worker process.
+"""ur_rtde in a supervised worker process, with the controller's RTDE watchdog armed while it moves.
 
 ur_rtde's constructors hold the GIL, its auto-reconnect can segfault the process, and several of
 its calls can block for minutes (reference ur-rtde.md §6). So every ur_rtde object lives in a
-child process (multiprocessing, spawn context) that answers one request at a time over a pipe,
-and the parent (`RTDEWorker`) puts a timeout on every call: when the worker crashes, hangs or
-times out, the parent kills it and raises `WorkerError` — it never hangs with it. ur_rtde's
-`reconnect()` is never called; a lost link means a new worker.
+child process that answers one request at a time over a socket pair, and the parent
+(`RTDEWorker`) puts a timeout on every call: when the worker crashes, hangs or times out, the
+parent kills it and raises `WorkerError` — it never hangs with it. ur_rtde's `reconnect()` is
+never called; a lost link means a new worker.
 
-Requests are `(method, args)`; the worker's methods are the `_Channels` methods below.
+The child is a plain `python -m robot.rtde_worker` subprocess (not multiprocessing's spawn, which
+re-imports the caller's `__main__` and so would need an `if __name__ == "__main__":` guard in every
+user script that sends). It exits when the parent's end of the socket closes (the parent died).
+
+Watchdog: every move is commanded with the controller's RTDE watchdog armed
+(`setWatchdog(watchdog_hz)`, re-armed after each `movePath`, which re-uploads the control script),
+and the worker kicks it before answering each request. The parent polls the state every few tens
+of milliseconds while the arm moves, so the kicks stop — and the controller stops the program and
+the arm within 1 / watchdog_hz — when the parent dies or hangs, the worker dies or hangs, or the
+link drops.
+
+Requests are `(seq, method, args)`, replies `(seq, "ok", result)` or `(seq, "error", text, trace)`;
+the worker's methods are the `_Channels` methods below.
 """
 from __future__ import annotations
 
-import multiprocessing as mp
 import os
+import socket
+import subprocess
+import sys
 import time
 import traceback
+from multiprocessing.connection import Connection
+from pathlib import Path
 from typing import Any, Callable
 
 #: RTDE variables the monitor receives (a small set at 125 Hz, reference ur-rtde.md §9.1).
@@ -36,6 +52,17 @@ class _Channels:
     def __init__(self, host: str):
         self.host = host
         self.dash = self.recv = self.ctrl = self.io = None
+        self.watchdog_hz = 0.0
+
+    def kick(self) -> None:
+        """Kick the controller's watchdog (before every request, once it is armed)."""
+        if self.ctrl is not None and self.watchdog_hz > 0:
+            self.ctrl.kickWatchdog()
+
+    def arm_watchdog(self, hz: float) -> bool:
+        """Arm the controller's RTDE watchdog: the program stops unless kicked at >= hz."""
+        self.watchdog_hz = float(hz)
+        return bool(self.ctrl.setWatchdog(self.watchdog_hz)) if hz > 0 else True
 
     def connect_dashboard(self) -> str:
         import dashboard_client
@@ -101,13 +128,22 @@ class _Channels:
         for move, what, values in entries:
             path.addEntry(E(E.MoveJ if move == "movej" else E.MoveL,
                             E.PositionJoints if what == "q" else E.PositionTcpPose, [float(v) for v in values]))
-        return bool(self.ctrl.movePath(path, asynchronous))
+        ok = bool(self.ctrl.movePath(path, asynchronous))
+        if ok and self.watchdog_hz > 0:  # movePath re-uploaded the control script: arm its watchdog
+            self.ctrl.setWatchdog(self.watchdog_hz)
+        return ok
 
     def move_j(self, q, v: float, a: float, asynchronous: bool) -> bool:
+        self._rearm()
         return bool(self.ctrl.moveJ(list(q), v, a, asynchronous))
 
     def move_l(self, pose, v: float, a: float, asynchronous: bool) -> bool:
+        self._rearm()
         return bool(self.ctrl.moveL(list(pose), v, a, asynchronous))
+
+    def _rearm(self) -> None:
+        if self.watchdog_hz > 0:
+            self.ctrl.setWatchdog(self.watchdog_hz)
 
     def progress(self) -> int:
         return int(self.ctrl.getAsyncOperationProgress())
@@ -123,6 +159,7 @@ class _Channels:
         return True
 
     def disconnect(self) -> bool:
+        self.watchdog_hz = 0.0
         for obj in (self.ctrl, self.io, self.recv, self.dash):
             if obj is not None:
                 obj.disconnect()
@@ -130,8 +167,8 @@ class _Channels:
         return True
 
 
-def _worker_main(conn, host: str) -> None:
-    """Worker process: answer requests until the pipe closes.
+def serve(fd: int, host: str) -> None:
+    """Worker process: answer requests on socket `fd` until the parent's end closes.
 
     Ctrl-C reaches the whole process group; the worker ignores it so that the parent can still
     stop the arm through it before shutting it down.
@@ -139,17 +176,21 @@ def _worker_main(conn, host: str) -> None:
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    conn = Connection(fd)
     ch = _Channels(host)
     while True:
         try:
-            method, args = conn.recv()
+            seq, method, args = conn.recv()
         except (EOFError, OSError):
-            os._exit(0)
+            os._exit(0)  # the parent is gone: no more kicks, the controller's watchdog stops the arm
         try:
+            ch.kick()
             result = getattr(ch, method)(*args)
-            conn.send(("ok", result))
+            conn.send((seq, "ok", result))
+        except (EOFError, OSError, BrokenPipeError):
+            os._exit(0)
         except Exception as exc:  # ur_rtde errors go back to the parent as CallError
-            conn.send(("error", f"{type(exc).__name__}: {exc}", traceback.format_exc(limit=2)))
+            conn.send((seq, "error", f"{type(exc).__name__}: {exc}", traceback.format_exc(limit=2)))
 
 
 class RTDEWorker:
@@ -158,48 +199,63 @@ class RTDEWorker:
     `log(event: dict)` (optional) receives every request and reply, for the send log.
     """
 
-    def __init__(self, host: str, log: Callable[[dict], None] | None = None, start_timeout: float = 20.0):
+    def __init__(self, host: str, log: Callable[[dict], None] | None = None):
         self.host = host
         self._log = log or (lambda e: None)
-        ctx = mp.get_context("spawn")
-        self._conn, child = ctx.Pipe()
-        self.proc = ctx.Process(target=_worker_main, args=(child, host), name="ur_rtde-worker", daemon=True)
-        self.proc.start()
-        child.close()
+        mine, child = socket.socketpair()
+        root = str(Path(__file__).resolve().parents[1])  # the folder holding the robot package
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([root] + [p for p in [os.environ.get("PYTHONPATH")] if p])}
+        try:
+            self.proc = subprocess.Popen([sys.executable, "-m", "robot.rtde_worker", str(child.fileno()), host],
+                                         pass_fds=(child.fileno(),), stdin=subprocess.DEVNULL, env=env)
+        finally:
+            child.close()
+        self._conn = Connection(mine.detach())
+        self._seq = 0
         self.dead_reason: str | None = None
+        self._log({"t": round(time.time(), 4), "worker": "started", "pid": self.proc.pid})
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid
 
     @property
     def alive(self) -> bool:
-        return self.dead_reason is None and self.proc.is_alive()
+        return self.dead_reason is None and self.proc.poll() is None
 
     def call(self, method: str, *args, timeout: float = 10.0) -> Any:
         """Run `method(*args)` in the worker; `WorkerError` after killing it on a timeout or crash."""
         if self.dead_reason is not None:
             raise WorkerError(self.dead_reason)
         t0 = time.monotonic()
+        self._seq += 1
+        seq = self._seq
         self._log({"t": round(time.time(), 4), "call": method, "args": args})
         try:
-            self._conn.send((method, args))
+            self._conn.send((seq, method, args))
             deadline = t0 + timeout
-            while not self._conn.poll(min(0.05, max(0.0, deadline - time.monotonic()))):
-                if not self.proc.is_alive():
-                    self._die(f"ur_rtde worker died during {method} ({self._exit_text()})")
-                if time.monotonic() >= deadline:
-                    self._die(f"ur_rtde call {method} did not return within {timeout:g} s")
-            reply = self._conn.recv()
+            while True:  # replies to calls abandoned by an exception (Ctrl-C) are skipped
+                while not self._conn.poll(min(0.05, max(0.0, deadline - time.monotonic()))):
+                    if self.proc.poll() is not None:
+                        self._die(f"ur_rtde worker died during {method} ({self._exit_text()})")
+                    if time.monotonic() >= deadline:
+                        self._die(f"ur_rtde call {method} did not return within {timeout:g} s")
+                reply = self._conn.recv()
+                if reply[0] == seq:
+                    break
         except (EOFError, OSError, BrokenPipeError):
             self._die(f"ur_rtde worker died during {method} ({self._exit_text()})")
         dt = time.monotonic() - t0
-        if reply[0] == "ok":
-            self._log({"t": round(time.time(), 4), "reply": method, "result": reply[1], "dt": round(dt, 4)})
-            return reply[1]
-        self._log({"t": round(time.time(), 4), "reply": method, "error": reply[1], "dt": round(dt, 4)})
-        raise CallError(reply[1])
+        if reply[1] == "ok":
+            self._log({"t": round(time.time(), 4), "reply": method, "result": reply[2], "dt": round(dt, 4)})
+            return reply[2]
+        self._log({"t": round(time.time(), 4), "reply": method, "error": reply[2], "dt": round(dt, 4)})
+        raise CallError(reply[2])
 
     def _exit_text(self) -> str:
-        self.proc.join(timeout=0.2)
-        code = self.proc.exitcode
-        if code is None:
+        try:
+            code = self.proc.wait(timeout=0.2)
+        except subprocess.TimeoutExpired:
             return "still running"
         return f"killed by signal {-code}" if code < 0 else f"exit code {code}"
 
@@ -210,13 +266,13 @@ class RTDEWorker:
         raise WorkerError(reason)
 
     def kill(self) -> None:
-        """Terminate the worker (SIGTERM, then SIGKILL after 1 s)."""
-        if self.proc.is_alive():
-            self.proc.terminate()
-            self.proc.join(timeout=1.0)
-            if self.proc.is_alive():
-                self.proc.kill()
-                self.proc.join(timeout=1.0)
+        """Terminate the worker (SIGTERM, then SIGKILL after 1 s; a stopped worker gets SIGKILL)."""
+        if self.proc.poll() is None:
+            self.proc.kill()  # SIGKILL: also ends a worker that was stopped (SIGSTOP) or hangs in C
+            try:
+                self.proc.wait(timeout=2.0)
+            except subprocess.TimeoutExpired:
+                pass
         try:
             self._conn.close()
         except OSError:
@@ -232,3 +288,7 @@ class RTDEWorker:
             except (WorkerError, CallError):
                 pass
         self.kill()
+
+
+if __name__ == "__main__":
+    serve(int(sys.argv[1]), sys.argv[2])

@@ -1,55 +1,63 @@
 """Send a checked toolpath to a UR controller over RTDE with ur_rtde (in a supervised worker).
 
-`send_toolpath(toolpath, settings)` does, in order:
+`send_toolpath(toolpath, check, cell, settings)` does, in order:
 
-1. validate the motion arguments against ur_rtde's ranges and the blend rule (r = 0 at the end,
-   neighbouring blends must not overlap);
-2. preflight over the dashboard: robot mode RUNNING, safety NORMAL, remote control on
-   (`power_on` powers on and releases the brakes first; `unlock` clears a protective stop that is
-   older than 5 s);
-3. connect the receive and control interfaces (worker process, timeouts on every call), set the TCP;
-4. send the waypoints from `resume_from` as blended `movePath` chunks, asynchronously, and watch
-   the receive stream every `poll_s`: the timestamp must advance, safety must stay normal, the
-   control script must keep running, and the async progress register gives the waypoint index;
-5. finish with a register move (full double precision) onto the last waypoint and compare the
-   final pose with the toolpath's.
+1. the interlock (`robot.interlock.clear_for_send`), before any connection is opened: the check
+   report passed and belongs to this very toolpath, cell file and FOLD file; the toolpath keeps
+   the cell's joint, speed, acceleration and blend limits; the check, run again here, passes;
+2. ur_rtde's argument ranges and the blend rule (`robot.path_chunks.validate_waypoints`);
+3. read-only preflight: dashboard (robot model, remote control) and the receive stream: the arm
+   must stand at waypoint 0, or for `resume_from` N on the segment into waypoint N (position,
+   orientation and joints, `robot.interlock.verify_start`) - nothing on the controller has been
+   changed when this refuses;
+4. only then changes: power on and brake release (`power_on`), unlock a protective stop older than
+   5 s (`unlock`); safety must be NORMAL; connect the IO and control interfaces (the control script
+   is uploaded), set the TCP, arm the RTDE watchdog (`robot.rtde_worker`);
+5. the waypoints from `resume_from` as blended `movePath` chunks, asynchronously, watching the
+   receive stream every `poll_s` (each poll kicks the watchdog): the timestamp must advance, safety
+   must stay normal, the control script must keep running; the async progress register gives the
+   waypoint index;
+6. a register move (full double precision) onto the last waypoint, compared with the toolpath.
 
-Path numbers pass through ur_rtde's script injection printed with 6 significant digits; the
-sender measures that rounding (`quantisation_m`/`_rad`, below 1 um / 10 urad for poses within
-~1 m), shrinks blend radii by the rounding so that blends cannot overlap after it, and lands the
-last waypoint through the registers so the end pose carries no rounding at all.
+Path numbers pass through ur_rtde's script injection printed with 6 significant digits
+(`robot.path_chunks`); the last waypoint is landed through the registers without rounding.
 
 On any fault (protective or emergency stop, program stopped, stream stalled or lost, worker
-crashed or hung, a timeout) it stops the arm (stopL through the control script if that still
-answers, else the worker is killed), and returns a `SendResult` naming the last completed waypoint
-and the reason; `resume_from` continues from there.
+crashed or hung, a timeout, Ctrl-C) the arm is stopped - stopL through the worker if it still
+answers, else `stop` on a fresh dashboard connection - and a `SendResult` names the last completed
+waypoint and the reason. If this process or its worker dies or hangs, the controller's watchdog
+stops the arm within 1 / `watchdog_hz` s. Use from a script needs no `__main__` guard.
 """
 from __future__ import annotations
 
 import math
+import socket
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from robot.interlock import Cleared, StartTolerances, clear_for_send, verify_start
+from robot.path_chunks import (MAX_BLEND, MAX_JOINT_ACCEL, MAX_JOINT_SPEED, MAX_TOOL_ACCEL, MAX_TOOL_SPEED,
+                               SendError, chunk_entries, point_segment_distance, point_segment_distance_nd,
+                               pose_distance, printed, validate_waypoints)
 from robot.rtde_worker import CallError, RTDEWorker, WorkerError
 
-# ur_rtde's client-side argument ranges (reference ur-rtde.md §2.6)
-MAX_JOINT_SPEED, MAX_JOINT_ACCEL = 3.14, 40.0
-MAX_TOOL_SPEED, MAX_TOOL_ACCEL = 3.0, 150.0
-MAX_BLEND = 2.0
+__all__ = ["SendSettings", "SendResult", "SendError", "send_toolpath", "dashboard_stop", "validate_waypoints",
+           "printed", "chunk_entries", "pose_distance", "point_segment_distance", "point_segment_distance_nd",
+           "MAX_JOINT_SPEED", "MAX_JOINT_ACCEL", "MAX_TOOL_SPEED", "MAX_TOOL_ACCEL", "MAX_BLEND"]
+
 RUNTIME_PLAYING = 2
 PROTECTIVE_BIT, ESTOP_BIT = 1 << 2, 1 << 7
-
-
-class SendError(Exception):
-    """The toolpath cannot be sent as given (bad motion arguments, far from the resume point)."""
+DASHBOARD_PORT = 29999
 
 
 @dataclass(frozen=True)
 class SendSettings:
-    """How to send. Times in seconds; tolerances in metres and radians."""
+    """How to send. Times in seconds; tolerances in metres and radians; `watchdog_hz`: the RTDE
+    watchdog's minimum kick rate while the control script runs (0 = off, not recommended)."""
 
     host: str
     chunk: int = 50
@@ -64,8 +72,8 @@ class SendSettings:
     stop_decel: float = 2.0
     final_tol_m: float = 2e-4
     final_tol_rad: float = 2e-3
-    resume_tol_m: float = 0.005
-    start_tol_rad: float = 0.01  # a fresh start needs the arm this close to waypoint 0 (joints)
+    start: StartTolerances = StartTolerances()
+    watchdog_hz: float = 5.0
     rt_priority: int = -1
     connect_retry_s: float = 3.0  # keep trying the dashboard this long (a controller still starting)
 
@@ -73,14 +81,17 @@ class SendSettings:
 @dataclass
 class SendResult:
     """What happened: `ok`, `last_completed` (index of the last waypoint reached, -1 for none),
-    `reason` (None when ok), and measurements."""
+    `reason` (None when ok), the toolpath hash sent, and measurements (`recheck_s`: the check
+    run again before sending)."""
 
     ok: bool
     last_completed: int
     total: int
     reason: str | None = None
+    toolpath_sha256: str = ""
     chunks_sent: int = 0
     elapsed_s: float = 0.0
+    recheck_s: float = 0.0
     final_error_m: float | None = None
     final_error_rad: float | None = None
     quantisation_m: float = 0.0
@@ -93,101 +104,43 @@ class SendResult:
         return {k: v for k, v in self.__dict__.items()}
 
 
-# ---- checks before anything leaves the process -----------------------------------------------------
-
-def validate_waypoints(waypoints: list[dict]) -> None:
-    """ur_rtde's argument ranges and the blend rule; raises SendError naming the waypoint."""
-    n = len(waypoints)
-    for i, w in enumerate(waypoints):
-        lin = w["move"] == "movel"
-        vmax, amax = (MAX_TOOL_SPEED, MAX_TOOL_ACCEL) if lin else (MAX_JOINT_SPEED, MAX_JOINT_ACCEL)
-        unit = "m/s" if lin else "rad/s"
-        if not 0 < w["v"] <= vmax:
-            raise SendError(f"waypoint {i}: speed {w['v']} {unit} outside (0, {vmax}]")
-        if not 0 < w["a"] <= amax:
-            raise SendError(f"waypoint {i}: acceleration {w['a']} {unit}^2 outside (0, {amax}]")
-        if not 0 <= w["r"] <= MAX_BLEND:
-            raise SendError(f"waypoint {i}: blend radius {w['r']} m outside [0, {MAX_BLEND}]")
-    if waypoints[-1]["r"] != 0:
-        raise SendError(f"waypoint {n - 1}: the last waypoint must have blend radius 0")
-    P = np.array([w["pose"][:3] for w in waypoints])
-    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
-    r = np.array([w["r"] for w in waypoints])
-    for i in range(n - 1):
-        if r[i] + r[i + 1] > seg[i] * (1 + 1e-9) + 1e-12:
-            raise SendError(f"waypoints {i}-{i + 1}: blend radii {r[i]:g} + {r[i + 1]:g} m overlap on a "
-                            f"{seg[i]:.6g} m segment (UR rejects overlapping blends)")
+def dashboard_stop(host: str, timeout: float = 1.0) -> str:
+    """`stop` on a fresh dashboard connection (the program stops, and with it the arm); the reply or
+    why it failed. A plain socket rather than ur_rtde: a new ur_rtde client needs a new worker
+    process (seconds to start), and the dashboard's protocol is one text line each way."""
+    try:
+        with socket.create_connection((host, DASHBOARD_PORT), timeout=timeout) as s:
+            s.settimeout(timeout)
+            _read_line(s)  # the greeting
+            s.sendall(b"stop\n")
+            return _read_line(s)
+    except OSError as exc:
+        return f"dashboard stop failed: {exc}"
 
 
-def printed(x: float) -> float:
-    """The value ur_rtde's script injection prints for `x` (iostream default: 6 significant digits)."""
-    return float(f"{x:.6g}")
+def _read_line(s: socket.socket, limit: int = 4096) -> str:
+    buf = b""
+    while not buf.endswith(b"\n") and len(buf) < limit:
+        chunk = s.recv(256)
+        if not chunk:
+            break
+        buf += chunk
+    return buf.decode("utf-8", "replace").strip()
 
-
-def chunk_entries(waypoints: list[dict], start: int, stop: int) -> tuple[list, float, float, float]:
-    """movePath entries for waypoints[start:stop] with the arm at rest at both ends.
-
-    Blend radii are reduced where the printed (rounded) positions would make them overlap. Returns
-    (entries, max position rounding m, max rotation-vector rounding rad, largest blend reduction m).
-    """
-    entries, qm, qr, red = [], 0.0, 0.0, 0.0
-    ws = waypoints[start:stop]
-    pos = np.array([[printed(x) for x in w["pose"][:3]] for w in ws])
-    seg = np.linalg.norm(np.diff(pos, axis=0), axis=1) if len(ws) > 1 else np.zeros(0)
-    for k, w in enumerate(ws):
-        r = 0.0 if k == 0 or k == len(ws) - 1 else float(w["r"])
-        if r > 0:
-            limit = 0.499 * min(seg[k - 1], seg[k])  # strictly inside half of each rounded neighbour
-            if r > limit:
-                red = max(red, r - limit)
-                r = max(limit, 0.0)
-        if w["move"] == "movej":
-            vals = list(w["q"])
-            qr = max(qr, max(abs(printed(x) - x) for x in vals))
-            entries.append(("movej", "q", vals + [w["v"], w["a"], r]))
-        else:
-            vals = list(w["pose"])
-            qm = max(qm, max(abs(printed(x) - x) for x in vals[:3]))
-            qr = max(qr, max(abs(printed(x) - x) for x in vals[3:]))
-            entries.append(("movel", "pose", vals + [w["v"], w["a"], r]))
-    return entries, qm, qr, red
-
-
-def pose_distance(a, b) -> tuple[float, float]:
-    """(position distance m, rotation angle rad) between two UR poses."""
-    from scipy.spatial.transform import Rotation
-
-    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
-    ang = (Rotation.from_rotvec(a[3:]).inv() * Rotation.from_rotvec(b[3:])).magnitude()
-    return float(np.linalg.norm(a[:3] - b[:3])), float(ang)
-
-
-def point_segment_distance(p, a, b) -> float:
-    """Distance (m) from position p to the segment a-b (UR poses or points; positions only)."""
-    return point_segment_distance_nd(np.asarray(p)[:3], np.asarray(a)[:3], np.asarray(b)[:3])
-
-
-def point_segment_distance_nd(p, a, b) -> float:
-    """Euclidean distance from point p to the segment a-b in any dimension."""
-    p, a, b = (np.asarray(x, dtype=np.float64) for x in (p, a, b))
-    ab = b - a
-    t = 0.0 if not np.any(ab) else float(np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0.0, 1.0))
-    return float(np.linalg.norm(p - (a + t * ab)))
-
-
-# ---- the sender -----------------------------------------------------------------------------------
 
 class _Fault(Exception):
     pass
 
 
-class Sender:
-    """One send: a worker, the preflight, chunked paths and their monitoring (module docstring)."""
+class _Sender:
+    """One send of a cleared toolpath: a worker, the preflight, chunked paths and their monitoring
+    (module docstring). Only `send_toolpath` makes one, after the interlock."""
 
-    def __init__(self, toolpath, settings: SendSettings, log: Callable[[dict], None] | None = None,
+    def __init__(self, cleared: Cleared, settings: SendSettings, log: Callable[[dict], None] | None = None,
                  on_progress: Callable[[int, dict], None] | None = None):
-        self.tp = toolpath
-        self.wps = [dict(w) for w in toolpath.waypoints]
+        self.cleared = cleared
+        self.tp = cleared.toolpath
+        self.wps = list(cleared.toolpath.waypoints)
         self.s = settings
         self._log = log or (lambda e: None)
         self._on_progress = on_progress or (lambda k, st: None)
@@ -197,6 +150,7 @@ class Sender:
         self._last_ts = None
         self._last_ts_change = 0.0
         self._watch = None  # (progress callback, op id) of the asynchronous move being watched
+        self._control = False  # the control interface was connected (motion may have been commanded)
 
     def event(self, **kw) -> None:
         kw.setdefault("t", round(time.time(), 4))
@@ -207,6 +161,8 @@ class Sender:
 
     # ---- steps ----------------------------------------------------------------------------------
     def preflight(self) -> str:
+        """Read-only: the dashboard answers, the robot model is the toolpath's, remote control is on,
+        and the arm stands where this send may start. Changes nothing on the controller."""
         s = self.s
         t_end = time.monotonic() + s.connect_retry_s
         while True:
@@ -217,6 +173,28 @@ class Sender:
                 if time.monotonic() > t_end:
                     raise
                 time.sleep(0.25)
+        model = self.call("dashboard", "get robot model").strip()
+        want = str(self.tp.robot).lower().removesuffix("e").upper()  # e-Series answer "UR5", "UR10"
+        if model.upper() != want:
+            raise _Fault(f"preflight: the controller reports robot model {model!r}, the toolpath is for "
+                         f"{self.tp.robot}")
+        remote = self.call("dashboard", "is in remote control")
+        if "true" not in remote.lower():
+            raise _Fault(f"preflight: remote control is off ({remote!r}); switch the pendant to Remote Control")
+        self.call("connect_receive", s.monitor_hz, timeout=s.connect_timeout_s)
+        st = self.call("state", timeout=max(1.0, s.stall_s * 2))
+        self.event(step="start position", q=st["q"], tcp_pose=st["tcp_pose"], resume_from=s.resume_from)
+        try:
+            verify_start(self.wps, s.resume_from, st["q"], st["tcp_pose"], s.start)
+        except SendError as exc:
+            if s.resume_from == 0:
+                raise _Fault(str(exc)) from None
+            raise
+        return version
+
+    def prepare(self) -> None:
+        """The changes a send needs: power on, unlock, then safety NORMAL."""
+        s = self.s
         mode = self.call("dashboard", "robotmode")
         if "RUNNING" not in mode:
             if not s.power_on:
@@ -224,7 +202,7 @@ class Sender:
             self.call("dashboard", "power on")
             self._wait_dashboard("robotmode", ("IDLE", "RUNNING"), 30.0)
             self.call("dashboard", "brake release")
-            mode = self._wait_dashboard("robotmode", ("RUNNING",), 30.0)
+            self._wait_dashboard("robotmode", ("RUNNING",), 30.0)
         safety = self.call("dashboard", "safetystatus")
         if "PROTECTIVE_STOP" in safety and s.unlock:
             # a controller refuses for 5 s after the stop: wait that out, then give up
@@ -238,15 +216,6 @@ class Sender:
         if safety != "Safetystatus: NORMAL":
             hint = " (use --unlock after inspecting the cause)" if "PROTECTIVE" in safety else ""
             raise _Fault(f"preflight: {safety!r}, expected 'Safetystatus: NORMAL'{hint}")
-        remote = self.call("dashboard", "is in remote control")
-        if "true" not in remote.lower():
-            raise _Fault(f"preflight: remote control is off ({remote!r}); switch the pendant to Remote Control")
-        model = self.call("dashboard", "get robot model").strip()
-        want = str(self.tp.robot).lower().removesuffix("e").upper()  # e-Series answer "UR5", "UR10"
-        if model.upper() != want:
-            raise _Fault(f"preflight: the controller reports robot model {model!r}, the toolpath is for "
-                         f"{self.tp.robot}")
-        return version
 
     def _wait_dashboard(self, command: str, words: tuple, timeout: float) -> str:
         t_end = time.monotonic() + timeout
@@ -379,8 +348,7 @@ class Sender:
 
     # ---- gripper --------------------------------------------------------------------------------
     def _grip(self) -> dict | None:
-        g = self.tp.extra.get("grip") if isinstance(getattr(self.tp, "extra", None), dict) else None
-        return g if isinstance(g, dict) and "output" in g else None
+        return self.tp.grip
 
     def gripper_state_at(self, k: int) -> bool:
         """Whether the gripper is closed while moving toward waypoint k (grip ... release)."""
@@ -418,34 +386,6 @@ class Sender:
         if g is not None and op in ("grip", "release"):
             self.set_gripper(op == "grip", float(g.get(f"{op}_dwell_s", 0.5)))
 
-    def check_resume(self) -> None:
-        """Where the arm must stand before sending. A fresh start: at waypoint 0 (the check covered
-        the motion between waypoints, not from an arbitrary pose to the first one). A resume: on
-        the way into waypoint `resume_from` (near the TCP line from the previous waypoint for a
-        movel, near the joint-space line for a movej)."""
-        k = self.s.resume_from
-        st = self.poll()
-        if k == 0:
-            off = np.abs(np.subtract(st["q"], self.wps[0]["q"]))
-            if off.max() > self.s.start_tol_rad:
-                j = int(np.argmax(off))
-                raise _Fault(f"the arm is not at waypoint 0 (joint {j + 1} is {off[j]:.3f} rad away): move it "
-                             f"there first (the check did not cover a move from here)")
-            return
-        a, b = self.wps[k - 1], self.wps[k]
-        if b["move"] == "movej":
-            d = point_segment_distance_nd(st["q"], a["q"], b["q"])
-            tol = 0.02
-            if d > tol:
-                raise SendError(f"--resume-from {k}: the joints are {d:.3f} rad from the joint move between "
-                                f"waypoints {k - 1} and {k} (allowed {tol} rad); move the arm there first")
-            return
-        d = point_segment_distance(st["tcp_pose"], a["pose"], b["pose"])
-        tol = self.s.resume_tol_m + max(a["r"], b["r"])
-        if d > tol:
-            raise SendError(f"--resume-from {k}: the TCP is {d * 1e3:.1f} mm from the segment between waypoints "
-                            f"{k - 1} and {k} (allowed {tol * 1e3:.1f} mm); move the arm there first")
-
     def settle_progress(self) -> None:
         """After a fault: the stopped program's async word still holds the last waypoint it began,
         which may be newer than the last poll saw; count it (never more than the controller says)."""
@@ -461,29 +401,44 @@ class Sender:
             on_running(progress, st)
 
     def stop_arm(self) -> str:
-        """Best effort: stopL through the control script; kill the worker if it does not answer."""
-        if self.worker is None or not self.worker.alive:
-            return "worker already gone"
-        try:
-            ok = self.call("stop_l", self.s.stop_decel, timeout=2.0)
-            return "stopL done" if ok else "stopL returned False (control script not running: the arm is stopped)"
-        except (WorkerError, CallError) as exc:
-            return f"stopL failed: {exc}"
+        """stopL through the control script; if the worker does not answer, kill it and send `stop`
+        on a fresh dashboard connection. Nothing to do before the control script was uploaded."""
+        if not self._control:
+            return "no motion was commanded"
+        if self.worker is not None and self.worker.alive:
+            try:
+                ok = self.call("stop_l", self.s.stop_decel, timeout=2.0)
+                text = "stopL done" if ok else "stopL returned False (control script not running: the arm is stopped)"
+                self.event(step="stop", how=text)
+                return text
+            except (WorkerError, CallError) as exc:
+                text = f"stopL failed: {exc}"
+        else:
+            text = "worker gone"
+        if self.worker is not None:
+            self.worker.kill()
+        reply = dashboard_stop(self.s.host)
+        text = f"{text}; dashboard stop: {reply}"
+        self.event(step="stop", how=text)
+        return text
 
     # ---- the whole run --------------------------------------------------------------------------
     def run(self) -> SendResult:
         s = self.s
         n = len(self.wps)
-        result = SendResult(ok=False, last_completed=s.resume_from - 1, total=n)
+        result = SendResult(ok=False, last_completed=s.resume_from - 1, total=n, toolpath_sha256=self.cleared.sha256,
+                            recheck_s=self.cleared.recheck_s)
         t0 = time.monotonic()
-        if not 0 <= s.resume_from < n:
-            raise SendError(f"--resume-from {s.resume_from}: the toolpath has waypoints 0-{n - 1}")
-        validate_waypoints(self.wps)
+        self.event(step="cleared", toolpath_sha256=self.cleared.sha256, cell_sha256=self.cleared.cell.sha256,
+                   fold_sha256=self.cleared.fold_sha256, recheck_s=round(self.cleared.recheck_s, 4))
         self.worker = RTDEWorker(s.host, log=self._log)
         try:
             result.controller = self.preflight()
+            self.prepare()
             self.event(step="preflight ok", controller=result.controller)
-            self.call("connect_receive", s.monitor_hz, timeout=s.connect_timeout_s)
+            if self._grip() is not None:
+                self.call("connect_io", timeout=s.connect_timeout_s)
+            self._control = True  # from here on a fault stops the arm
             self.call("connect_control", s.rt_priority, timeout=s.connect_timeout_s)
             if not self.call("set_tcp", list(self.tp.tcp)):
                 raise _Fault("the controller refused the toolpath's TCP")
@@ -491,11 +446,12 @@ class Sender:
             if len(active) != 6 or np.abs(np.subtract(active, self.tp.tcp)).max() > 1e-9:
                 raise _Fault(f"the controller's active TCP {active} is not the toolpath's {list(self.tp.tcp)}")
             if self._grip() is not None:
-                self.call("connect_io", timeout=s.connect_timeout_s)
                 self.set_gripper(self.gripper_state_at(s.resume_from))
-            self.check_resume()
+            # from the first move on, the controller stops the program unless every poll kicks it
+            if not self.call("arm_watchdog", s.watchdog_hz):
+                raise _Fault("the controller refused to arm the RTDE watchdog")
             # chunks end at grip/release waypoints (the arm stops there, the gripper switches)
-            switch = [k for k, w in enumerate(self.wps) if w["op"] in ("grip", "release")]
+            switch = [k for k, w in enumerate(self.wps) if w.op in ("grip", "release")]
             start, first = s.resume_from, True
             while True:
                 stop = min(start + max(2, s.chunk), n)
@@ -510,6 +466,7 @@ class Sender:
                 start = stop - 1
             self.finish(result)
             result.ok = True
+            self.call("stop_script")  # the arm rests on the last waypoint: end the control script
         except _Fault as exc:
             result.reason = str(exc)
             result.events.append(self.stop_arm())
@@ -520,7 +477,8 @@ class Sender:
             self.settle_progress()
         except WorkerError as exc:
             result.reason = f"controller link lost: {exc}"
-        except KeyboardInterrupt:  # Ctrl-C: stop the arm before giving up
+            result.events.append(self.stop_arm())
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: stop the arm before giving up
             result.reason = "interrupted"
             result.events.append(self.stop_arm())
             raise
@@ -535,6 +493,22 @@ class Sender:
         return result
 
 
-def send_toolpath(toolpath, settings: SendSettings, log=None, on_progress=None) -> SendResult:
-    """Send `toolpath` (a `robot.toolpath.Toolpath`) per the module docstring."""
-    return Sender(toolpath, settings, log=log, on_progress=on_progress).run()
+def send_toolpath(toolpath, check, cell, settings: SendSettings, *, fold: str | Path | None = None,
+                  base_dir: str | Path | None = None, log: Callable[[dict], None] | None = None,
+                  on_progress: Callable[[int, dict], None] | None = None) -> SendResult:
+    """Send `toolpath` (a `robot.toolpath.Toolpath`) checked by `check` (a `sim.check.CheckReport`
+    or the CHECK.json data) in `cell` (a `robot.cell.Cell` loaded from its file), per the module
+    docstring.
+
+    `fold`: the FOLD file the toolpath was planned from (default: the one the check used, else the
+    one the toolpath's source names, relative to `base_dir`). `log(event)` receives every step,
+    request and reply as it happens; `on_progress(k, state)` each completed waypoint.
+    Raises `SendError` (`robot.interlock.InterlockError` for the interlock) before any connection
+    when the toolpath may not be sent; returns a `SendResult` once the controller was contacted.
+    """
+    n = len(toolpath)
+    if not 0 <= settings.resume_from < n:
+        raise SendError(f"--resume-from {settings.resume_from}: the toolpath has waypoints 0-{n - 1}")
+    cleared = clear_for_send(toolpath, check, cell, fold=fold, base_dir=base_dir)
+    validate_waypoints(cleared.toolpath.waypoints)
+    return _Sender(cleared, settings, log=log, on_progress=on_progress).run()

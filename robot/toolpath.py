@@ -1,148 +1,214 @@
-"""Toolpaths: fold states -> TCP poses -> joint solutions with one branch -> PATH.json.
+"""PATH.json: the toolpath file format, its typed records and the hash that identifies it.
 
-The operations for one panel (design.md): `home` (movej to the cell's home joints), `approach`
-(movej to a pose `approach_distance` in front of the grip face), `grip` (movel onto the face; the
-gripper output switches on after arriving), `fold` (movel through the grip face's frame in every
-fold state; subdivided so that no joint moves more than `max_joint_step` between waypoints),
-`release` (the last fold state; the gripper switches off after arriving), `retract` (movel back
-along the approach axis) and `home` again.
+A toolpath (`fabkit.toolpath/2`) is `{"format", "robot", "cell", "cell_sha256", "tcp", "source",
+"waypoints": [{"pose", "q", "move", "v", "a", "r", "state", "op"}], "sha256", ...}` plus additive
+keys (`units`, `grip` (output, kind, dwell times, face), `cycle_time_s`, `checks`). Poses are TCP
+poses in the robot base frame ([x, y, z, rx, ry, rz], m and rotation vector rad); `q` in rad;
+movel v/a in m/s, m/s^2, movej v/a in rad/s, rad/s^2; r in m. `source` names the FOLD file the
+fold states came from and its sha256; `cell_sha256` is the sha256 of the cell file's bytes.
 
-TCP pose = base^-1 . fixture . face frame(state) . grip offset, where the grip offset turns the
-tool about the face's x axis by pi (the tool's z points into the face, so it approaches from the
-front side) and backs off along the approach by the standoff.
+`sha256` hashes everything that decides motion: the canonical JSON of the whole document except
+`sha256` itself (`json.dumps(doc, sort_keys=True, separators=(",", ":"))`, floats as Python repr,
+numbers normalised to the record types below). Editing any key - the TCP, the gripper output, the
+robot, the cell hash, the FOLD hash, any waypoint field, the motion parameters - changes it. An
+older `fabkit.toolpath/1` file, whose hash covered the waypoints only, is refused: re-plan it.
 
-Branch selection is ours: every IK solution of the approach pose starts a candidate branch
-(shoulder/elbow/wrist signature); the branch is propagated through all linear moves by the
-wrap-aware nearest solution *of the same branch*, and each linear segment is also checked at
-intermediate poses (what the controller's straight-line interpolation will ask for). A configuration
-change, a jump, an unreachable pose or a singularity inside a linear move is a `PlanningError`
-naming the waypoint. Of the branches that work, the one with the least joint travel wins.
+Waypoints are frozen `Waypoint` records (tuples inside), so a planned toolpath cannot change in
+memory between the check and the send; `source` and the extra keys are deep copies, and the
+hash is recomputed from the document every time it is asked for.
 
-PATH.json (`fabkit.toolpath/1`): `{"format", "robot", "cell", "tcp", "source", "waypoints":
-[{"pose", "q", "move", "v", "a", "r", "state", "op"}], "sha256", ...}`; `sha256` hashes the
-canonical JSON of the waypoints (`json.dumps(waypoints, sort_keys=True, separators=(",", ":"))`,
-floats as Python repr). Poses are TCP poses in the robot base frame ([x, y, z, rx, ry, rz], m and
-rotation vector rad); `q` in rad; movel v/a in m/s, m/s^2, movej v/a in rad/s, rad/s^2; r in m.
-Extra keys (additive): `units`, `grip` (output, kind, dwell times), `cycle_time_s`, `checks`.
+The planner lives in `robot.planner`; its public names are also reachable from here.
 """
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 
-from fabkit.errors import FabkitError, InputError
+from fabkit.errors import InputError
 from fabkit.io.jsonfile import load_json
 from robot import kinematics as K
-from robot.cell import Cell, matrix_to_pose, pose_to_matrix
-from robot.motion import (MotionParams, blend_overlaps, blend_radii, cycle_time, joint_speed_estimates,
-                          limited_params)
 
-__all__ = ["FORMAT", "OPS", "Toolpath", "PlanOptions", "PlanningError", "PlanResult", "grip_offset",
-           "tcp_targets", "plan_toolpath", "plan_panel", "canonical_waypoints_json", "waypoints_sha256",
+__all__ = ["FORMAT", "OLD_FORMATS", "OPS", "MOVES", "Waypoint", "Toolpath", "canonical_json", "document_sha256",
+           "fold_file_of",
+           "PlanOptions", "PlanningError", "PlanResult", "grip_offset", "tcp_targets", "plan_toolpath", "plan_panel",
            "check_toolpath_kinematics"]
 
-FORMAT = "fabkit.toolpath/1"
+FORMAT = "fabkit.toolpath/2"
+OLD_FORMATS = ("fabkit.toolpath/1",)
 OPS = ("home", "approach", "grip", "fold", "release", "retract")
 MOVES = ("movej", "movel")
 WAYPOINT_KEYS = ("pose", "q", "move", "v", "a", "r", "state", "op")
+REQUIRED_KEYS = ("robot", "cell", "cell_sha256", "tcp", "source", "waypoints", "sha256")
+#: Bounds past which a number is bad input rather than a motion to check (m, rad, SI rates).
+MAX_POSITION_M = 10.0
+MAX_ROTATION_RAD = 4 * math.pi
+MAX_JOINT_RAD = 4 * math.pi
+MAX_RATE = 1000.0
 
 
-# ---- PATH.json -----------------------------------------------------------------------------------
-
-def canonical_waypoints_json(waypoints: Sequence[dict]) -> str:
-    """The canonical JSON text the hash is taken over (sorted keys, no spaces, float repr)."""
-    return json.dumps(list(waypoints), sort_keys=True, separators=(",", ":"), allow_nan=False)
+def canonical_json(doc: dict) -> str:
+    """The canonical JSON text the toolpath hash is taken over (sorted keys, no spaces, float repr)."""
+    return json.dumps(doc, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
-def waypoints_sha256(waypoints: Sequence[dict]) -> str:
-    return hashlib.sha256(canonical_waypoints_json(waypoints).encode("utf-8")).hexdigest()
+def document_sha256(doc: dict) -> str:
+    """sha256 of a PATH.json document without its `sha256` key."""
+    body = {k: v for k, v in doc.items() if k != "sha256"}
+    return hashlib.sha256(canonical_json(body).encode("utf-8")).hexdigest()
 
 
-def _plain_waypoint(w: dict) -> dict:
-    """A waypoint with plain Python numbers (floats keep full precision through repr)."""
-    return {"pose": [float(x) for x in w["pose"]], "q": [float(x) for x in w["q"]], "move": str(w["move"]),
-            "v": float(w["v"]), "a": float(w["a"]), "r": float(w["r"]), "state": int(w["state"]),
-            "op": str(w["op"])}
+@dataclass(frozen=True)
+class Waypoint:
+    """One waypoint (module docstring for units). Read-only; `w["q"]` reads a field by its
+    PATH.json key."""
+
+    pose: tuple[float, ...]
+    q: tuple[float, ...]
+    move: str
+    v: float
+    a: float
+    r: float
+    state: int
+    op: str
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "pose", tuple(float(x) for x in np.asarray(self.pose, dtype=np.float64).reshape(-1)))
+        set_(self, "q", tuple(float(x) for x in np.asarray(self.q, dtype=np.float64).reshape(-1)))
+        set_(self, "move", str(self.move))
+        set_(self, "op", str(self.op))
+        for k in ("v", "a", "r"):
+            set_(self, k, float(getattr(self, k)))
+        set_(self, "state", int(self.state))
+
+    def __getitem__(self, key: str):
+        if key not in WAYPOINT_KEYS:
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def to_json(self) -> dict:
+        return {"pose": list(self.pose), "q": list(self.q), "move": self.move, "v": self.v, "a": self.a,
+                "r": self.r, "state": self.state, "op": self.op}
+
+    @classmethod
+    def of(cls, w: "Waypoint | dict") -> "Waypoint":
+        return w if isinstance(w, Waypoint) else cls(**{k: w[k] for k in WAYPOINT_KEYS})
+
+
+def _plain(value):
+    """A JSON value as plain Python data (deep copy; numpy scalars and arrays become numbers/lists)."""
+    return json.loads(json.dumps(value, allow_nan=False, default=lambda o: o.tolist() if hasattr(o, "tolist") else
+                                 str(o)))
 
 
 @dataclass(frozen=True, eq=False)
 class Toolpath:
-    """A planned toolpath (module docstring): robot model, cell name, TCP in the flange frame
-    ([6] UR pose), `source` (where the fold states came from), waypoints (plain dicts), and extra
-    top-level data (`extra`: units, grip output, cycle time, checks)."""
+    """A planned toolpath (module docstring): robot model, cell name and cell file hash, TCP in the
+    flange frame ([6] UR pose), `source` (the FOLD file and its hash), waypoints (`Waypoint`), and
+    the additive top-level keys (`extra`: units, grip output, cycle time, checks)."""
 
     robot: str
     cell: str
     tcp: tuple[float, ...]
     source: dict
-    waypoints: tuple[dict, ...]
+    waypoints: tuple[Waypoint, ...]
     extra: dict = field(default_factory=dict)
+    cell_sha256: str = ""
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "waypoints", tuple(_plain_waypoint(w) for w in self.waypoints))
-        object.__setattr__(self, "tcp", tuple(float(x) for x in self.tcp))
+        set_ = object.__setattr__
+        set_(self, "waypoints", tuple(Waypoint.of(w) for w in self.waypoints))
+        set_(self, "tcp", tuple(float(x) for x in self.tcp))
+        set_(self, "source", _plain(self.source))
+        set_(self, "extra", _plain(self.extra))
 
     @property
     def sha256(self) -> str:
-        return waypoints_sha256(self.waypoints)
+        """The hash over the whole document (recomputed on every call: nothing escapes it)."""
+        return document_sha256(self.to_json(with_hash=False))
 
     def __len__(self) -> int:
         return len(self.waypoints)
 
     @property
     def poses(self) -> np.ndarray:
-        return np.array([w["pose"] for w in self.waypoints]).reshape(-1, 6)
+        return np.array([w.pose for w in self.waypoints]).reshape(-1, 6)
 
     @property
     def joints(self) -> np.ndarray:
-        return np.array([w["q"] for w in self.waypoints]).reshape(-1, 6)
+        return np.array([w.q for w in self.waypoints]).reshape(-1, 6)
 
-    def to_json(self) -> dict:
-        d = {"format": FORMAT, "robot": self.robot, "cell": self.cell, "tcp": list(self.tcp),
-             "source": self.source, "waypoints": [dict(w) for w in self.waypoints], "sha256": self.sha256}
+    @property
+    def grip(self) -> dict | None:
+        """The gripper record (`output`, `kind`, dwell times), or None for a toolpath without one."""
+        g = self.extra.get("grip")
+        return copy.deepcopy(g) if isinstance(g, dict) and "output" in g else None
+
+    @property
+    def fold_sha256(self) -> str | None:
+        """The source FOLD file's sha256 as recorded at planning, or None."""
+        s = self.source.get("sha256") if isinstance(self.source, dict) else None
+        return s if isinstance(s, str) and len(s) == 64 else None
+
+    def to_json(self, with_hash: bool = True) -> dict:
+        d = {"format": FORMAT, "robot": self.robot, "cell": self.cell, "cell_sha256": self.cell_sha256,
+             "tcp": list(self.tcp), "source": copy.deepcopy(self.source),
+             "waypoints": [w.to_json() for w in self.waypoints]}
         for k, v in self.extra.items():
-            d.setdefault(k, v)
+            d.setdefault(k, copy.deepcopy(v))
+        if with_hash:
+            d["sha256"] = document_sha256(d)
         return d
 
     @classmethod
     def from_json(cls, d: Any, source: str | None = None) -> "Toolpath":
         """Validate and read a PATH.json document; `InputError` (naming the key) on any problem,
-        including a `sha256` that does not match the waypoints."""
+        including a `sha256` that does not match the document and an older format."""
         def fail(msg):
             raise InputError(msg, source=source)
 
         if not isinstance(d, dict):
             fail("not a toolpath: expected a JSON object")
+        if d.get("format") in OLD_FORMATS:
+            fail(f"format {d['format']} is an older toolpath whose hash does not cover the TCP, cell and "
+                 "gripper: re-plan it with `fabkit toolpath`")
         if d.get("format") != FORMAT:
             fail(f"format is {d.get('format')!r}, expected {FORMAT!r}")
-        for key in ("robot", "cell", "tcp", "source", "waypoints", "sha256"):
+        for key in REQUIRED_KEYS:
             if key not in d:
                 fail(f"{key}: missing")
         if d["robot"] not in K.MODELS:
             fail(f"robot: {d['robot']!r} is not one of {', '.join(K.MODELS)}")
-        if not (isinstance(d["tcp"], list) and len(d["tcp"]) == 6 and all(_is_num(x) for x in d["tcp"])):
-            fail("tcp: expected 6 numbers")
+        if not (isinstance(d["tcp"], list) and len(d["tcp"]) == 6 and all(_is_num(x) for x in d["tcp"])
+                and all(abs(x) <= MAX_POSITION_M for x in d["tcp"])):
+            fail("tcp: expected 6 finite numbers")
         if not isinstance(d["source"], dict):
             fail("source: expected an object")
         if not isinstance(d["cell"], str):
             fail("cell: expected a string")
+        if not (isinstance(d["cell_sha256"], str) and len(d["cell_sha256"]) == 64):
+            fail("cell_sha256: expected the 64-digit sha256 of the cell file")
         if not isinstance(d["waypoints"], list) or not d["waypoints"]:
             fail("waypoints: expected a non-empty list")
         for i, w in enumerate(d["waypoints"]):
             _check_waypoint(w, i, fail)
-        if d["sha256"] != waypoints_sha256(d["waypoints"]):
-            fail("sha256 does not match the waypoints (the file was edited after planning)")
-        extra = {k: v for k, v in d.items() if k not in ("format", "robot", "cell", "tcp", "source", "waypoints",
-                                                          "sha256")}
-        return cls(robot=d["robot"], cell=str(d["cell"]), tcp=tuple(d["tcp"]), source=d["source"],
-                   waypoints=tuple(d["waypoints"]), extra=extra)
+        extra = {k: v for k, v in d.items() if k not in ("format", *REQUIRED_KEYS)}
+        try:
+            tp = cls(robot=d["robot"], cell=str(d["cell"]), tcp=tuple(d["tcp"]), source=d["source"],
+                     waypoints=tuple(Waypoint.of(w) for w in d["waypoints"]), extra=extra,
+                     cell_sha256=d["cell_sha256"])
+        except ValueError as exc:  # non-finite numbers in the extra keys
+            fail(f"not valid toolpath data: {exc}")
+        if d["sha256"] != tp.sha256:
+            fail("sha256 does not match the document (the file was edited after planning)")
+        return tp
 
     def save(self, path: str | Path) -> None:
         """Write PATH.json atomically."""
@@ -172,379 +238,47 @@ def _check_waypoint(w, i, fail) -> None:
     for k in ("pose", "q"):
         if not (isinstance(w[k], list) and len(w[k]) == 6 and all(_is_num(x) for x in w[k])):
             fail(f"{where}.{k}: expected 6 finite numbers")
+    if any(abs(x) > MAX_POSITION_M for x in w["pose"][:3]) or math.hypot(*w["pose"][3:]) > MAX_ROTATION_RAD:
+        fail(f"{where}.pose: {w['pose']} is not a TCP pose near a robot (more than {MAX_POSITION_M:g} m or "
+             "4 pi rad)")
+    if any(abs(x) > MAX_JOINT_RAD for x in w["q"]):
+        fail(f"{where}.q: {w['q']} has a joint beyond 4 pi rad")
     if w["move"] not in MOVES:
         fail(f"{where}.move: {w['move']!r} is not movej or movel")
     if w["op"] not in OPS:
         fail(f"{where}.op: {w['op']!r} is not one of {', '.join(OPS)}")
     for k in ("v", "a"):
-        if not (_is_num(w[k]) and w[k] > 0):
-            fail(f"{where}.{k}: expected a positive number")
-    if not (_is_num(w["r"]) and w["r"] >= 0):
+        if not (_is_num(w[k]) and 0 < w[k] <= MAX_RATE):
+            fail(f"{where}.{k}: expected a positive number (at most {MAX_RATE:g})")
+    if not (_is_num(w["r"]) and 0 <= w["r"] <= MAX_RATE):
         fail(f"{where}.r: expected a number >= 0")
     if not (isinstance(w["state"], int) and not isinstance(w["state"], bool) and w["state"] >= 0):
         fail(f"{where}.state: expected an integer >= 0")
 
 
-# ---- planning --------------------------------------------------------------------------------
-
-class PlanningError(FabkitError):
-    """A toolpath that cannot be executed: names the waypoint (index, op, fold state) and the reason."""
-
-    def __init__(self, waypoint: int, op: str, state: int, kind: str, detail: str):
-        self.waypoint, self.op, self.state, self.kind, self.detail = waypoint, op, state, kind, detail
-        super().__init__(f"waypoint {waypoint} ({op}, fold state {state}): {kind}: {detail}")
-
-    def as_problem(self) -> dict:
-        return {"waypoint": self.waypoint, "op": self.op, "state": self.state, "kind": self.kind,
-                "detail": self.detail}
-
-
-@dataclass(frozen=True)
-class PlanOptions:
-    """Planner settings (lengths m, angles rad).
-
-    approach_distance: how far in front of the face the approach/retract poses are;
-    grip_standoff: TCP distance from the face centroid when gripping (along the face normal);
-    tool_yaw: turn of the tool about its z axis (rad); None = automatic for tools whose TCP lies on
-    the flange axis (a suction cup or any tool symmetric about its axis): the yaw that keeps wrist 3
-    at its home angle at the approach pose; max_joint_step: largest joint change between
-    consecutive waypoints of a linear move (subdivide otherwise); check_substeps: intermediate poses
-    checked on every linear segment; singular_*: refuse waypoints closer than this to a singularity
-    (|sin q3|, |sin q5|, shoulder term in m); params: speeds and blends.
-    """
-
-    approach_distance: float = 0.08
-    grip_standoff: float = 0.0
-    tool_yaw: float | None = None
-    max_joint_step: float = math.radians(5.0)
-    check_substeps: int = 4
-    max_subdivisions: int = 256
-    singular_elbow: float = K.SINGULARITY_LIMITS.elbow  # the checker's limits: planned paths pass the check
-    singular_wrist: float = K.SINGULARITY_LIMITS.wrist
-    singular_shoulder: float = K.SINGULARITY_LIMITS.shoulder_m
-    params: MotionParams = MotionParams()
-
-
-def grip_offset(standoff: float = 0.0, tool_yaw: float = 0.0) -> np.ndarray:
-    """Face frame -> TCP: turn pi about the face x axis (tool z into the face), yaw, back off `standoff`."""
-    G = np.eye(4)
-    G[:3, :3] = Rotation.from_euler("XZ", [np.pi, tool_yaw]).as_matrix()  # Rx(pi) @ Rz(yaw)
-    back = np.eye(4)
-    back[2, 3] = -float(standoff)
-    return G @ back
-
-
-def tcp_targets(cell: Cell, face_frames: np.ndarray, options: PlanOptions = PlanOptions()) -> dict:
-    """TCP poses in the robot base frame for one grip face's frames `(S, 4, 4)` (panel frame):
-    `grip` (S, 4, 4) per fold state, `approach` and `retract` (4, 4)."""
-    F = np.asarray(face_frames, dtype=np.float64)
-    M = cell.panel_to_base
-    yaw = options.tool_yaw or 0.0
-    G = grip_offset(options.grip_standoff, yaw)
-    back = grip_offset(options.grip_standoff + options.approach_distance, yaw)
-    return {"grip": M @ F @ G, "approach": M @ F[0] @ back, "retract": M @ F[-1] @ back}
-
-
-@dataclass
-class _Target:
-    T: np.ndarray          # TCP pose in base frame (4, 4)
-    move: str
-    op: str
-    state: int
-    q: np.ndarray | None = None
-
-
-def _interp(Ta: np.ndarray, Tb: np.ndarray, ts: np.ndarray) -> np.ndarray:
-    """Poses along the straight TCP line from Ta to Tb (position lerp, orientation slerp): (k, 4, 4)."""
-    rots = Rotation.from_matrix(np.stack([Ta[:3, :3], Tb[:3, :3]]))
-    R = Slerp([0.0, 1.0], rots)(ts).as_matrix()
-    out = np.zeros((len(ts), 4, 4))
-    out[:, :3, :3] = R
-    out[:, :3, 3] = Ta[:3, 3] + np.outer(ts, Tb[:3, 3] - Ta[:3, 3])
-    out[:, 3, 3] = 1.0
-    return out
-
-
-def _tool_is_axial(tcp: np.ndarray) -> bool:
-    """True if the TCP lies on the flange z axis with its z along it (yaw about it = wrist 3 alone)."""
-    return bool(np.hypot(tcp[0, 3], tcp[1, 3]) < 1e-12 and abs(tcp[2, 2] - 1.0) < 1e-12)
-
-
-def _singular_problem(model, q, opt: PlanOptions) -> str | None:
-    f = K.singularity_factors(model, q)
-    if abs(f.wrist) < opt.singular_wrist:
-        return f"wrist singularity (sin q5 = {float(f.wrist):.3g})"
-    if abs(f.elbow) < opt.singular_elbow:
-        return f"elbow singularity (sin q3 = {float(f.elbow):.3g}, arm stretched or folded)"
-    if abs(f.shoulder) < opt.singular_shoulder:
-        return f"shoulder singularity (wrist centre {float(f.shoulder):.3g} m from the base axis)"
+def fold_file_of(tp: Toolpath, base_dir: str | Path | None = None) -> Path | None:
+    """The FOLD file a toolpath's `source` names (a string value ending in .fold), resolved against
+    `base_dir` (the PATH.json's folder) when relative and there; None if the source names none."""
+    src = tp.source
+    values = [src] if isinstance(src, str) else list(src.values()) if isinstance(src, dict) else []
+    for v in values:
+        if isinstance(v, str) and v.lower().endswith(".fold"):
+            p = Path(v)
+            if not p.is_absolute() and base_dir is not None and (Path(base_dir) / p).exists():
+                return Path(base_dir) / p
+            return p
     return None
 
 
-class _Fail(Exception):
-    def __init__(self, index: int, kind: str, detail: str):
-        self.index, self.kind, self.detail = index, kind, detail
+_PLANNER_NAMES = ("PlanOptions", "PlanningError", "PlanResult", "grip_offset", "tcp_targets", "plan_toolpath",
+                  "plan_panel", "check_toolpath_kinematics")
 
 
-def _propagate(model, tcp, chain: list[_Target], q0: np.ndarray, branch, opt: PlanOptions) -> list[_Target]:
-    """Joint solutions along a chain of linear moves on one branch (raises _Fail).
+def __getattr__(name: str):
+    """The planner's public names (`robot.planner`), loaded on first use (it imports this module)."""
+    if name in _PLANNER_NAMES:
+        from robot import planner
 
-    Fold moves are subdivided (straight TCP lines between fold states) until no joint changes by
-    more than `max_joint_step` between waypoints; every linear segment is then checked at
-    intermediate poses for reach, branch and joint swings.
-    """
-    out = [replace(chain[0], q=q0)]
-    for i in range(1, len(chain)):
-        prev, tgt = out[-1], chain[i]
-        subdivide = tgt.op in ("fold", "release")
-        pieces, last_worst = 1, np.inf
-        while True:
-            ts = np.arange(1, pieces + 1) / pieces
-            poses = _interp(prev.T, tgt.T, ts) if pieces > 1 else tgt.T[None]
-            qs, q_ref, worst = [], prev.q, 0.0
-            for T in poses:
-                q = _solve_on_branch(model, tcp, T, q_ref, branch, index=i)
-                why = _singular_problem(model, q, opt)
-                if why:
-                    raise _Fail(i, "singular", why)
-                worst = max(worst, float(np.max(np.abs(q - q_ref))))
-                qs.append(q)
-                q_ref = q
-            if not subdivide or worst <= opt.max_joint_step:
-                break
-            if pieces > 1 and worst > 0.75 * last_worst:  # halving the pieces did not shrink the jump
-                raise _Fail(i, "discontinuous", f"joints jump by {math.degrees(worst):.3g} deg however finely the "
-                            "move is divided (a flip near a singularity or a joint limit)")
-            pieces = max(2 * pieces, int(np.ceil(worst / opt.max_joint_step * 1.2)) * pieces)
-            last_worst = worst
-            if pieces > opt.max_subdivisions:
-                raise _Fail(i, "discontinuous", f"joints jump by more than {math.degrees(opt.max_joint_step):.3g} deg "
-                            f"even with {opt.max_subdivisions} subdivisions (near a singularity or a joint limit)")
-        for k, (T, q) in enumerate(zip(poses, qs)):
-            last = k == len(qs) - 1
-            # intermediate fold points belong to the state being left
-            out.append(_Target(T=T, move=tgt.move, op=tgt.op if last else "fold",
-                               state=tgt.state if last else prev.state, q=q))
-    # the straight lines between consecutive waypoints (what movel interpolates)
-    for i in range(1, len(out)):
-        a, b = out[i - 1], out[i]
-        if b.move != "movel":
-            continue
-        n_sub = max(opt.check_substeps, 2 * int(np.ceil(np.max(np.abs(b.q - a.q)) / opt.max_joint_step)))
-        ts = np.arange(1, n_sub + 1) / (n_sub + 1)
-        q_ref = a.q
-        for T in _interp(a.T, b.T, ts):
-            q = _solve_on_branch(model, tcp, T, q_ref, branch, index=i, between=True)
-            if np.max(np.abs(q - q_ref)) > opt.max_joint_step:
-                raise _Fail(i, "discontinuous", "joints swing on the straight line from the previous waypoint")
-            q_ref = q
-        if np.max(np.abs(b.q - q_ref)) > opt.max_joint_step:
-            raise _Fail(i, "discontinuous", "joints swing on the straight line from the previous waypoint")
-    return out
+        return getattr(planner, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
-
-def _solve_on_branch(model, tcp, T, q_ref, branch, index: int, between: bool = False) -> np.ndarray:
-    S = K.ik(model, T, tcp)
-    where = "on the line to this waypoint" if between else "pose"
-    if len(S) == 0:
-        raise _Fail(index, "unreachable", f"no joint solution reaches the TCP {where} "
-                    f"{np.round(matrix_to_pose(T), 4).tolist()}")
-    try:
-        return K.select_nearest(S, q_ref, model=model, branch=branch)
-    except LookupError:
-        raise _Fail(index, "configuration_change",
-                    f"the {K.branch_text(branch)} configuration cannot reach the TCP {where}; "
-                    "following it needs a configuration change inside a linear move") from None
-
-
-@dataclass(frozen=True, eq=False)
-class PlanResult:
-    """A planned toolpath plus what the planner measured (for reports)."""
-
-    toolpath: Toolpath
-    grip_face: int
-    branch: str
-    max_joint_step: float          # rad, largest joint change between consecutive waypoints of fold moves
-    joint_speed_ratio: float       # largest estimated joint speed / cell limit
-    min_singularity: dict          # smallest |factor| over the waypoints
-    cycle_time: float              # s
-    tried: tuple = ()              # (face, problem) of grip faces that did not work
-
-
-def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions = PlanOptions(),
-                  source: dict | None = None, grip_face: int = -1) -> PlanResult:
-    """Plan the operations for one grip face's frames `(S, 4, 4)` (panel frame) in `cell`.
-
-    Raises `PlanningError` naming the first waypoint that no branch can execute.
-    """
-    model, tcp = cell.model, cell.tool.tcp
-    F = np.asarray(face_frames, dtype=np.float64)
-    if F.ndim != 3 or F.shape[1:] != (4, 4) or not np.all(np.isfinite(F)):
-        raise InputError(f"face frames must be a finite (S, 4, 4) array, got shape {F.shape}")
-    S = F.shape[0]
-    if S < 2:
-        raise InputError(f"a fold needs at least 2 fold states (flat and folded), got {S}")
-    q_home = np.asarray(cell.robot.home, dtype=np.float64)
-    T_home = K.fk_tcp(model, q_home, tcp)
-    auto_yaw = options.tool_yaw is None and _tool_is_axial(tcp)
-    home_branch = K.branch_signs(model, q_home)
-
-    def chain_for(opt: PlanOptions) -> list[_Target]:
-        tg = tcp_targets(cell, F, opt)
-        chain = [_Target(tg["approach"], "movej", "approach", 0), _Target(tg["grip"][0], "movel", "grip", 0)]
-        for s in range(1, S):
-            chain.append(_Target(tg["grip"][s], "movel", "release" if s == S - 1 else "fold", s))
-        chain.append(_Target(tg["retract"], "movel", "retract", S - 1))
-        return chain
-
-    base_opt = replace(options, tool_yaw=options.tool_yaw or 0.0)
-    base_chain = chain_for(base_opt)
-    starts = K.ik(model, base_chain[0].T, tcp)
-    if len(starts) == 0:
-        raise PlanningError(1, "approach", 0, "unreachable", "no joint solution reaches the approach pose "
-                            f"{np.round(matrix_to_pose(base_chain[0].T), 4).tolist()}")
-    best, best_cost, fails = None, np.inf, []
-    for q_start in starts:
-        opt, chain, q0 = base_opt, base_chain, K.unwrap_near(q_start, q_home, model)
-        if auto_yaw:  # turning the tool about its axis moves wrist 3 alone: bring it to its home angle
-            delta = float(K._wrap(np.array(q_home[5] - q0[5])))
-            opt = replace(base_opt, tool_yaw=base_opt.tool_yaw + delta)
-            chain = chain_for(opt)
-            q0 = q0.copy()
-            q0[5] += delta
-        branch = K.branch_signs(model, q0)
-        try:
-            path = _propagate(model, tcp, chain, q0, branch, opt)
-        except _Fail as f:
-            fails.append((f, chain))
-            continue
-        Q = np.array([t.q for t in path])
-        # least joint travel; a branch other than the home configuration's costs pi per changed sign
-        cost = (np.abs(Q[0] - q_home).sum() + np.abs(np.diff(Q, axis=0)).sum()
-                + np.pi * np.sum(branch != home_branch))
-        if cost < best_cost:
-            best, best_cost = path, cost
-    if best is None:
-        f, chain = max(fails, key=lambda fc: fc[0].index)  # the branch that got farthest explains best
-        t = chain[min(f.index, len(chain) - 1)]
-        raise PlanningError(f.index + 1, t.op, t.state, f.kind, f.detail)
-
-    home_t = _Target(T_home, "movej", "home", 0, q_home)
-    end_t = _Target(T_home, "movej", "home", S - 1, q_home)
-    targets = [home_t] + best + [end_t]
-    return _finish(cell, targets, options, source or {}, grip_face)
-
-
-def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, grip_face: int) -> PlanResult:
-    """Speeds, blends, timing and joint-speed limits for the waypoint list; builds the Toolpath."""
-    p = limited_params(opt.params, cell.limits)
-    n = len(targets)
-    moves = np.array([t.move for t in targets])
-    ops = [t.op for t in targets]
-    P = np.array([t.T[:3, 3] for t in targets])
-    R = np.array([t.T[:3, :3] for t in targets])
-    Q = np.array([t.q for t in targets])
-    speed_of = {"approach": p.approach_speed, "grip": p.approach_speed, "fold": p.fold_speed,
-                "release": p.fold_speed, "retract": p.retract_speed}
-    v = np.array([p.joint_speed if m == "movej" else speed_of[o] for m, o in zip(moves, ops)])
-    a = np.array([p.joint_accel if m == "movej" else p.tcp_accel for m in moves])
-    # stops: every movej, grip/release/retract, a change of move kind, and the last waypoint
-    stops = np.array([m == "movej" or o in ("grip", "release", "retract", "home") for m, o in zip(moves, ops)])
-    stops[:-1] |= moves[1:] != moves[:-1]
-    r = blend_radii(P, stops, p.blend_max)
-    dwell = np.array([p.grip_dwell if o == "grip" else p.release_dwell if o == "release" else 0.0 for o in ops])
-    limit = np.asarray(cell.limits.joint_speed)
-    # lower movel speeds where the joints would exceed their limits (near singularities)
-    for _ in range(4):
-        ct = cycle_time(moves, P, R, Q, v, a, r, dwell)
-        qd = joint_speed_estimates(Q, ct.segments)
-        ratio = (qd / limit).max(axis=1)
-        over = np.flatnonzero((ratio > 0.95) & (moves[1:] == "movel"))
-        if len(over) == 0:
-            break
-        v[over + 1] = v[over + 1] * 0.9 / ratio[over]
-    ct = cycle_time(moves, P, R, Q, v, a, r, dwell)
-    qd = joint_speed_estimates(Q, ct.segments)
-    ratio = float((qd / limit).max()) if len(qd) else 0.0
-    lin = moves == "movel"
-    steps = np.abs(np.diff(Q, axis=0))[lin[1:] & lin[:-1]]
-    max_step = float(steps.max()) if len(steps) else 0.0
-    fold_pairs = np.array([o in ("fold", "release") for o in ops[1:]], dtype=bool)
-    fold_steps = np.abs(np.diff(Q, axis=0))[fold_pairs]
-    max_fold_step = float(fold_steps.max()) if len(fold_steps) else 0.0
-    f = K.singularity_factors(cell.model, Q[1:-1] if n > 2 else Q)
-    min_sing = {"elbow": float(np.abs(f.elbow).min()), "wrist": float(np.abs(f.wrist).min()),
-                "shoulder_m": float(np.abs(f.shoulder).min())}
-    overlaps = blend_overlaps(P, r)
-    assert len(overlaps) == 0, overlaps  # blend_radii guarantees this; a failure is a bug
-    waypoints = [{"pose": matrix_to_pose(t.T).tolist(), "q": t.q.tolist(), "move": t.move, "v": float(v[i]),
-                  "a": float(a[i]), "r": float(r[i]), "state": int(t.state), "op": t.op}
-                 for i, t in enumerate(targets)]
-    branch = K.branch_label(cell.model, Q[1]) if n > 1 else K.branch_label(cell.model, Q[0])
-    extra = {
-        "units": {"length": "m", "angle": "rad", "time": "s", "pose": "TCP in the robot base frame, rotation vector",
-                  "movel": "v m/s, a m/s^2", "movej": "v rad/s, a rad/s^2", "r": "m"},
-        "grip": {"output": cell.tool.grip_output, "kind": cell.tool.grip_output_kind,
-                 "grip_dwell_s": p.grip_dwell, "release_dwell_s": p.release_dwell, "face": int(grip_face)},
-        "cycle_time_s": ct.total,
-        "checks": {"branch": branch, "max_joint_step_rad": max_step, "max_fold_joint_step_rad": max_fold_step,
-                   "joint_speed_ratio": ratio,
-                   "min_singularity": min_sing, "fk_tolerance_m": K.IK_TOL_POS},
-    }
-    tp = Toolpath(robot=cell.model.name, cell=cell.name, tcp=tuple(matrix_to_pose(cell.tool.tcp)),
-                  source=source, waypoints=tuple(waypoints), extra=extra)
-    return PlanResult(toolpath=tp, grip_face=int(grip_face), branch=branch, max_joint_step=max_fold_step,
-                      joint_speed_ratio=ratio, min_singularity=min_sing, cycle_time=ct.total)
-
-
-def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: PlanOptions = PlanOptions(),
-               source: dict | None = None) -> PlanResult:
-    """Plan for a panel's middle-row frames (`fabkit.frames.FaceFrames`).
-
-    With `grip_face` None the face is chosen automatically: faces that move (not the clamped
-    strip) are tried from the largest motion down (more leverage far from the crease) and the first
-    that plans is used. Raises `InputError` for a grip face not in the middle row, `PlanningError`
-    when no face works (the error of the face that got farthest).
-    """
-    faces = [int(f) for f in frames.faces]
-    if grip_face is not None:
-        if int(grip_face) not in faces:
-            raise InputError(f"face {grip_face} is not a middle-row face (middle row: {faces})", source="--grip-face")
-        order = [int(grip_face)]
-    else:
-        C = frames.frames[:, :, :3, 3]
-        Z = frames.frames[:, :, :3, 2]
-        turn = np.arccos(np.clip(np.einsum("ski,ki->sk", Z, Z[0]), -1.0, 1.0)).max(axis=0)
-        motion = np.linalg.norm(C - C[0], axis=-1).max(axis=0) + 1e-6 * turn
-        moving = [faces[k] for k in np.argsort(-motion, kind="stable") if motion[k] > 1e-9]
-        order = moving or faces
-    tried = []
-    for face in order:
-        try:
-            res = plan_toolpath(cell, frames.of_face(face), options=options,
-                                source={**(source or {}), "grip_face": face}, grip_face=face)
-            return replace(res, tried=tuple(tried))
-        except PlanningError as exc:
-            tried.append((face, exc))
-    first = max(tried, key=lambda fe: fe[1].waypoint)[1] if len(tried) > 1 else tried[0][1]
-    if len(tried) > 1:
-        raise PlanningError(first.waypoint, first.op, first.state, first.kind,
-                            f"{first.detail} (no middle-row face works: tried {[f for f, _ in tried]})")
-    raise first
-
-
-def check_toolpath_kinematics(tp: Toolpath, tcp=None) -> dict:
-    """Re-check a toolpath: FK of every `q` against its pose, joint steps inside linear moves, and
-    blend overlaps. Returns {"fk_pos_max", "fk_rot_max", "max_linear_joint_step", "blend_overlaps"}."""
-    model = K.get_model(tp.robot)
-    tcp = pose_to_matrix(tp.tcp) if tcp is None else tcp
-    Q = tp.joints
-    T = np.array([pose_to_matrix(p) for p in tp.poses])
-    dp, dr = K.pose_error(K.fk_tcp(model, Q, tcp), T)
-    moves = np.array([w["move"] for w in tp.waypoints])
-    lin = (moves[1:] == "movel") & (moves[:-1] == "movel")
-    steps = np.abs(np.diff(Q, axis=0))[lin]
-    r = np.array([w["r"] for w in tp.waypoints])
-    return {"fk_pos_max": float(dp.max()), "fk_rot_max": float(dr.max()),
-            "max_linear_joint_step": float(steps.max()) if len(steps) else 0.0,
-            "blend_overlaps": blend_overlaps(T[:, :3, 3], r).tolist()}

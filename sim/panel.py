@@ -16,10 +16,28 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 __all__ = ["PanelPieces", "PanelModel", "panel_pieces", "piece_poses", "interpolate_poses", "panel_model",
-           "panel_from_fold", "DEFAULT_THICKNESS"]
+           "panel_from_fold", "check_fold_coordinates", "DEFAULT_THICKNESS", "MAX_COORDINATE_M"]
 
 #: Sheet thickness of the panel pieces (m) when the caller does not give one.
 DEFAULT_THICKNESS = 0.001
+#: Largest vertex coordinate (m) a FOLD file may have: a panel farther out is bad input, not a motion.
+MAX_COORDINATE_M = 100.0
+
+
+def check_fold_coordinates(model, source: str | None = None, limit_m: float = MAX_COORDINATE_M) -> None:
+    """`InputError` naming the frame and vertex if any coordinate of a `fabkit.fold.FoldModel`
+    (its key frame or any fold state) is non-finite or farther than `limit_m` from the origin."""
+    from fabkit.errors import InputError
+
+    frames = [("the crease pattern", model.vertices_coords)] + [
+        (f"file_frames[{k}]", f.vertices_coords) for k, f in enumerate(getattr(model, "frames", ()))]
+    for where, coords in frames:
+        X = np.asarray(coords, dtype=np.float64)
+        bad = ~np.isfinite(X).all(axis=-1) | (np.abs(np.nan_to_num(X, nan=np.inf)) > limit_m).any(axis=-1)
+        if bad.any():
+            v = int(np.flatnonzero(bad)[0])
+            raise InputError(f"{where}: vertex {v} has coordinates {X[v].tolist()} (non-finite or beyond "
+                             f"{limit_m:g} m)", source=source)
 
 
 @dataclass(frozen=True, eq=False)

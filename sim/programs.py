@@ -10,7 +10,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from robot import kinematics as kin
-from sim.check import Program
+from sim.interpolate import Program
 
 __all__ = ["sweep_program", "program_from_poses", "toolpath_from_program"]
 
@@ -75,4 +75,5 @@ def toolpath_from_program(prog: Program, cell, *, source=None, op: str = "fold")
                   "v": float(prog.v[i]), "a": float(prog.a[i]), "r": float(r[i]), "state": int(prog.states[i]),
                   "op": ops[i]} for i in range(len(prog))]
     return Toolpath(robot=cell.model.name, cell=cell.name, tcp=tuple(matrix_to_pose(cell.tool.tcp)),
-                    source=dict(source or {"generator": "sim.programs"}), waypoints=tuple(waypoints))
+                    source=dict(source or {"generator": "sim.programs"}), waypoints=tuple(waypoints),
+                    cell_sha256=cell.sha256)

@@ -161,22 +161,15 @@ def demo_toolpath(n_fold: int = 56, r_max: float = 0.01):
                     "op": ops[i]})
     grip = {"output": 0, "kind": "tool", "grip_dwell_s": 0.2, "release_dwell_s": 0.2}
     return Toolpath(robot=model.name, cell=cell.name, tcp=tuple(matrix_to_pose(tcp)), source={"test": "demo"},
-                    waypoints=tuple(wps), extra={"grip": grip})
+                    waypoints=tuple(wps), extra={"grip": grip}, cell_sha256=cell.sha256)
 
 
 def check_report(tp) -> dict:
-    """The real MuJoCo check of `tp` in the ur5e_bench cell, as CHECK.json data."""
-    from robot.cell import load_cell, pose_to_matrix
-    from sim.check import Program, check_program
+    """The real MuJoCo check of `tp` in the test bench cell, as CHECK.json data."""
+    from robot.cell import load_cell
+    from sim.check import check_toolpath
 
-    cell = load_cell(CELL)
-    wps = tp.waypoints
-    prog = Program(poses=np.array([pose_to_matrix(w["pose"]) for w in wps]), q=np.array([w["q"] for w in wps]),
-                   moves=tuple(w["move"] for w in wps), v=np.array([w["v"] for w in wps]),
-                   a=np.array([w["a"] for w in wps]), states=np.zeros(len(wps)), tcp=pose_to_matrix(tp.tcp),
-                   ops=tuple(w["op"] for w in wps), sha256=tp.sha256, r=np.array([w["r"] for w in wps]))
-    report, _ = check_program(prog, cell)
-    return report.to_json()
+    return check_toolpath(tp, load_cell(CELL)).to_json()
 
 
 def write_job(tmp: Path, tp, check: dict | None = None) -> tuple[Path, Path]:

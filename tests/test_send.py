@@ -47,7 +47,7 @@ def test_send_runs_the_demo_toolpath_to_completion(standin, host, job, tmp_path,
     if standin is None:  # a real URSim / robot: start where the toolpath starts
         move_to(host, tp.waypoints[0]["q"])
     log, report = tmp_path / "send.log", tmp_path / "report.json"
-    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", host, "--log", str(log), "--report", str(report))
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--cell", str(CELL), "--host", host, "--log", str(log), "--report", str(report))
     assert r.returncode == 0, r.stderr
     assert f"sent {len(tp)} of {len(tp)} waypoints" in r.stdout
     rep = json.loads(report.read_text())
@@ -57,8 +57,12 @@ def test_send_runs_the_demo_toolpath_to_completion(standin, host, job, tmp_path,
     assert rep["quantisation_m"] < 1e-6 and rep["quantisation_rad"] < 1e-5
     events = [json.loads(line) for line in log.read_text().splitlines()]
     calls = [e["call"] for e in events if "call" in e]
-    assert calls[:4] == ["connect_dashboard", "dashboard", "dashboard", "dashboard"]
-    assert calls.count("move_path") == 4 and "state" in calls and "set_tcp" in calls
+    # read-only first (model, remote control, where the arm is), then changes, the upload, the watchdog
+    assert calls[:5] == ["connect_dashboard", "dashboard", "dashboard", "connect_receive", "state"]
+    assert calls.index("connect_control") < calls.index("set_tcp") < calls.index("arm_watchdog") < calls.index("move_path")
+    assert calls.count("move_path") == 4 and "set_tcp" in calls and calls[-2:] == ["stop_script", "disconnect"]
+    assert events[0]["step"] == "cleared" and events[0]["toolpath_sha256"] == tp.sha256
+    assert rep["toolpath_sha256"] == tp.sha256 and 0 < rep["recheck_s"]
     grips = [e["on"] for e in events if e.get("step") == "gripper"]
     assert grips == [False, True, False]  # released at the start, closed at grip, opened at release
     if standin is not None:
@@ -73,7 +77,7 @@ def test_protective_stop_mid_path_then_resume(standin, host, job, tmp_path, caps
     tp, path, check = job
     report = tmp_path / "report.json"
     assert standin.admin("at_progress 20 protective_stop injected by the test")["ok"]
-    proc = subprocess.Popen([sys.executable, "-m", "fabkit", "send", str(path), "--check", str(check), "--host", host,
+    proc = subprocess.Popen([sys.executable, "-m", "fabkit", "send", str(path), "--check", str(check), "--cell", str(CELL), "--host", host,
                              "--report", str(report)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)
     try:
@@ -107,7 +111,7 @@ def test_protective_stop_mid_path_then_resume(standin, host, job, tmp_path, caps
     time.sleep(0.2)
     assert np.array_equal(np.array(standin.state()["q"]), q_stop)  # the arm stays stopped
     # resume: unlock (the stand-in's unlock delay is 1 s here) and finish the job
-    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", host, "--resume-from", str(last + 1), "--unlock")
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--cell", str(CELL), "--host", host, "--resume-from", str(last + 1), "--unlock")
     assert r.returncode == 0, r.stderr
     assert f"sent {len(tp) - last - 1} of {len(tp)} waypoints" in r.stdout
     assert np.abs(np.array(standin.state()["q"]) - tp.waypoints[-1]["q"]).max() < 1e-9
@@ -117,9 +121,10 @@ def test_protective_stop_mid_path_then_resume(standin, host, job, tmp_path, caps
 @needs_standin
 def test_resume_far_from_the_path_is_refused(standin, host, job, capsys):
     tp, path, check = job
-    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", host, "--resume-from", "30")
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--cell", str(CELL), "--host", host, "--resume-from", "30")
     assert r.returncode == 2
     assert "--resume-from 30: the TCP is" in r.stderr and r.stderr.count("\n") == 1
+    assert standin.state()["program"] is None or standin.state()["runtime_state"] != 2  # nothing was uploaded
 
 
 def test_failed_check_is_refused(job, tmp_path, capsys):
@@ -128,9 +133,9 @@ def test_failed_check_is_refused(job, tmp_path, capsys):
     data = json.loads(check.read_text())
     data.update(ok=False, problems=[{"waypoint": 12, "kind": "collision", "detail": "wrist_3 x bench"}])
     bad.write_text(json.dumps(data))
-    r = run_fabkit(capsys, "send", str(path), "--check", str(bad), "--host", "127.0.0.254")
+    r = run_fabkit(capsys, "send", str(path), "--check", str(bad), "--cell", str(CELL), "--host", "127.0.0.254")
     assert r.returncode == 1
-    assert "refusing to send" in r.stderr and "waypoint 12: collision" in r.stderr
+    assert "refusing to send" in r.stderr and "waypoint 12: collision" in r.stderr and r.stderr.count("\n") == 1
 
 
 def test_check_of_another_toolpath_is_refused(job, tmp_path, capsys):
@@ -139,7 +144,7 @@ def test_check_of_another_toolpath_is_refused(job, tmp_path, capsys):
     data = json.loads(check.read_text())
     data["toolpath_sha256"] = "0" * 64
     other.write_text(json.dumps(data))
-    r = run_fabkit(capsys, "send", str(path), "--check", str(other), "--host", "127.0.0.254")
+    r = run_fabkit(capsys, "send", str(path), "--check", str(other), "--cell", str(CELL), "--host", "127.0.0.254")
     assert r.returncode == 2
     assert "does not match the toolpath" in r.stderr and r.stderr.count("\n") == 1
 
@@ -150,8 +155,8 @@ def test_edited_toolpath_is_refused(job, tmp_path, capsys):
     d = json.loads(path.read_text())
     d["waypoints"][5]["pose"][2] += 0.01  # moved after checking: the file's hash no longer matches
     edited.write_text(json.dumps(d))
-    r = run_fabkit(capsys, "send", str(edited), "--check", str(check), "--host", "127.0.0.254")
-    assert r.returncode == 2 and "sha256" in r.stderr
+    r = run_fabkit(capsys, "send", str(edited), "--check", str(check), "--cell", str(CELL), "--host", "127.0.0.254")
+    assert r.returncode == 2 and "sha256 does not match" in r.stderr and r.stderr.count("\n") == 1
 
 
 def test_printed_matches_ur_rtde_path_printing(rng):
@@ -174,17 +179,17 @@ def test_overlapping_blends_are_refused_before_sending(job, tmp_path, capsys):
     from robot.sender import SendError, validate_waypoints
 
     tp, path, check = job
-    wps = [dict(w) for w in tp.waypoints]
+    wps = [w.to_json() for w in tp.waypoints]
     validate_waypoints(wps)
     seg = np.linalg.norm(np.subtract(wps[11]["pose"][:3], wps[10]["pose"][:3]))
     wps[10]["r"] = wps[11]["r"] = 0.6 * seg
     with pytest.raises(SendError, match=r"waypoints (9-10|10-11): blend radii .* overlap"):
         validate_waypoints(wps)
-    wps = [dict(w) for w in tp.waypoints]
+    wps = [w.to_json() for w in tp.waypoints]
     wps[-1]["r"] = 0.001
     with pytest.raises(SendError, match="last waypoint must have blend radius 0"):
         validate_waypoints(wps)
-    wps = [dict(w) for w in tp.waypoints]
+    wps = [w.to_json() for w in tp.waypoints]
     wps[3]["v"] = 3.5
     with pytest.raises(SendError, match=r"waypoint 3: speed 3.5 m/s outside \(0, 3.0\]"):
         validate_waypoints(wps)
@@ -218,7 +223,7 @@ def test_no_controller_at_the_address(job, capsys):
 
     tp, path, check = job
     nobody = free_loopback_hosts(random.Random(7))[0]
-    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--host", nobody)
+    r = run_fabkit(capsys, "send", str(path), "--check", str(check), "--cell", str(CELL), "--host", nobody)
     assert r.returncode == 1
     assert "stopped: ur_rtde error: RuntimeError: Timeout connecting to UR dashboard server." in r.stderr
     assert "last completed waypoint -1 of 59" in r.stderr

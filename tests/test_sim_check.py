@@ -41,7 +41,7 @@ def test_sweep_over_the_fixture_passes_in_both_cells(path):
     assert report.configs_checked == len(dense.q) > len(prog)
     assert report.cycle_time_s > 0
     js = report.to_json()
-    assert js["format"] == "fabkit.check/1" and js["ok"] is True and js["problems"] == []
+    assert js["format"] == "fabkit.check/2" and js["ok"] is True and js["problems"] == []
 
 
 def test_interpolation_respects_the_step_sizes(ur5e):

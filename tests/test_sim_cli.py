@@ -14,7 +14,7 @@ from fabkit.frames import middle_row_frames
 from fabkit.io.fold import save_fold
 from fold_fixtures import folded_grid_model
 from robot.cell import load_cell, pose_to_matrix
-from robot.toolpath import Toolpath, plan_panel
+from robot.toolpath import Toolpath, document_sha256, plan_panel
 
 ROOT = Path(__file__).resolve().parent.parent
 CELLS = ROOT / "cells"
@@ -63,7 +63,7 @@ def test_planned_fold_program_passes_in_both_cells(planned, name, capsys):
                       "--report", d / f"r_{name}.json"], capsys)
     assert rc == 0, cap.out + cap.err
     js = json.loads((d / f"check_{name}.json").read_text())
-    assert js["format"] == "fabkit.check/1" and js["ok"] is True and js["problems"] == []
+    assert js["format"] == "fabkit.check/2" and js["ok"] is True and js["problems"] == []
     assert js["toolpath_sha256"] == tp.sha256
     assert js["panel_faces"] == 15 and js["waypoints"] == len(tp)
     assert js["configs_checked"] > len(tp)
@@ -163,9 +163,7 @@ def test_wrong_robot_wrong_fold_and_missing_files_exit_2(planned, tmp_path, caps
     save_fold(_grid(0, [0, 50]), tmp_path / "grid.fold")
     doc = json.loads(path5.read_text())
     doc["source"]["sha256"] = "0" * 64
-    doc.pop("sha256")
-    tp = Toolpath.from_json({**doc, "sha256": Toolpath(**{k: doc[k] for k in ("robot", "cell", "tcp", "source",
-                                                                                "waypoints")}).sha256})
+    tp = Toolpath.from_json({**doc, "sha256": document_sha256(doc)})  # re-sealed after the edit
     tp.save(tmp_path / "p.json")
     rc, cap = _check([tmp_path / "p.json", "--cell", CELL_FILES["ur5e"], "-o", tmp_path / "c.json"], capsys)
     assert rc == 2 and "fold states changed since planning" in cap.err

@@ -18,7 +18,7 @@ from robot import kinematics as K
 from robot.cell import load_cell, parse_cell, pose_to_matrix
 from robot.motion import (blend_overlaps, blend_radii, joint_speed_estimates, segment_times, trapezoid_time)
 from robot.toolpath import (FORMAT, PlanningError, Toolpath, check_toolpath_kinematics, plan_panel, plan_toolpath,
-                            tcp_targets, waypoints_sha256)
+                            tcp_targets, document_sha256)
 
 CELLS = Path(__file__).resolve().parent.parent / "cells"
 CELL_FILES = [CELLS / "ur5e_bench.toml", CELLS / "ur10e_fold_table.toml"]
@@ -101,7 +101,7 @@ def test_waypoint_poses_follow_the_face_frames(planned, frames60):
     T = cell.robot.base_pose @ pose_to_matrix(ap["pose"])
     np.testing.assert_allclose(T[:3, 3], face_world[:3, 3] + 0.08 * face_world[:3, 2], atol=1e-12)
     # automatic tool yaw keeps wrist 3 at its home angle at the approach
-    assert abs(K._wrap(np.array(ap["q"][5] - cell.robot.home[5]))) < 1e-9
+    assert abs(K.wrap_angle(np.array(ap["q"][5] - cell.robot.home[5]))) < 1e-9
 
 
 def test_toolpath_json_round_trip(planned, tmp_path):
@@ -111,8 +111,10 @@ def test_toolpath_json_round_trip(planned, tmp_path):
     tp.save(path)
     d = json.loads(path.read_text())
     assert d["format"] == FORMAT and d["sha256"] == tp.sha256
-    canonical = json.dumps(d["waypoints"], sort_keys=True, separators=(",", ":"))
+    # the hash covers the whole document but itself: robot, cell + cell file hash, TCP, grip, source, waypoints
+    canonical = json.dumps({k: v for k, v in d.items() if k != "sha256"}, sort_keys=True, separators=(",", ":"))
     assert hashlib.sha256(canonical.encode()).hexdigest() == d["sha256"]
+    assert d["cell_sha256"] == planned[0].sha256 == hashlib.sha256(Path(planned[0].source).read_bytes()).hexdigest()
     back = Toolpath.load(path)
     assert back.sha256 == tp.sha256 and back.waypoints == tp.waypoints and back.extra == tp.extra
     # floats survive exactly
@@ -134,6 +136,14 @@ def test_toolpath_json_round_trip(planned, tmp_path):
     (lambda d: d.__setitem__("waypoints", []), "waypoints: expected a non-empty list"),
     (lambda d: d.__setitem__("source", "x.fold"), "source: expected an object"),
     (lambda d: d.__setitem__("cell", 3), "cell: expected a string"),
+    (lambda d: d.__setitem__("format", "fabkit.toolpath/1"), "re-plan it with `fabkit toolpath`"),
+    (lambda d: d.pop("cell_sha256"), "cell_sha256: missing"),
+    (lambda d: d["waypoints"][2]["pose"].__setitem__(0, 1e300), "waypoints[2].pose"),
+    (lambda d: d["waypoints"][2]["q"].__setitem__(0, 1e30), "waypoints[2].q"),
+    (lambda d: d["tcp"].__setitem__(2, d["tcp"][2] - 0.1), "sha256 does not match"),
+    (lambda d: d["grip"].__setitem__("output", 1 - d["grip"]["output"]), "sha256 does not match"),
+    (lambda d: d.__setitem__("cell_sha256", "0" * 64), "sha256 does not match"),
+    (lambda d: d["source"].__setitem__("sha256", "0" * 64), "sha256 does not match"),
 ])
 def test_toolpath_validation(planned, edit, words):
     d = copy.deepcopy(planned[1].toolpath.to_json())
@@ -152,12 +162,31 @@ def test_toolpath_load_errors(tmp_path):
         Toolpath.load(bad)
 
 
-def test_sha256_is_over_the_canonical_waypoints():
-    w = [{"pose": [0.1, 0, 0, 0, 0, 0], "q": [0.0] * 6, "move": "movej", "v": 1.0, "a": 1.0, "r": 0.0,
-          "state": 0, "op": "home"}]
-    text = '[{"a":1.0,"move":"movej","op":"home","pose":[0.1,0,0,0,0,0],"q":[0.0,0.0,0.0,0.0,0.0,0.0],' \
-           '"r":0.0,"state":0,"v":1.0}]'
-    assert waypoints_sha256(w) == hashlib.sha256(text.encode()).hexdigest()
+def test_sha256_is_over_the_canonical_document():
+    doc = {"format": FORMAT, "tcp": [0, 0, 0.13, 0, 0, 0], "waypoints": [{"pose": [0.1, 0, 0, 0, 0, 0], "v": 1.0}],
+           "sha256": "ignored"}
+    text = '{"format":"fabkit.toolpath/2","tcp":[0,0,0.13,0,0,0],"waypoints":[{"pose":[0.1,0,0,0,0,0],"v":1.0}]}'
+    assert document_sha256(doc) == hashlib.sha256(text.encode()).hexdigest()
+
+
+def test_waypoints_are_immutable(planned):
+    import dataclasses
+
+    tp = planned[1].toolpath
+    w = tp.waypoints[3]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        w.v = 3.0
+    with pytest.raises(TypeError):
+        w.q[0] = 1.0  # tuples
+    with pytest.raises(TypeError):
+        w["v"] = 3.0
+    assert w["q"] == w.q and isinstance(tp.waypoints, tuple)
+    before = tp.sha256
+    out = tp.extra["grip"]["output"]
+    tp.extra["grip"]["output"] = 1 - out  # a dict can be changed in memory, but the hash follows it
+    assert tp.sha256 != before
+    tp.extra["grip"]["output"] = out
+    assert tp.sha256 == before
 
 
 def _cell_with(path, **changes):

@@ -11,12 +11,15 @@ HELP = """Check every waypoint of a toolpath and the motion between them in a Mu
 
 The cell model is the UR arm built from its DH parameters with collision capsules, the tool, the
 obstacles and the panel (one thin convex piece per face, posed for each fold state; the FOLD file
-is the one the toolpath's source names, or --fold). Configurations are checked at least every 1 deg
+is the one the toolpath's source names, or --fold; either way its sha256 must be the one the
+toolpath was planned from). Configurations are checked at least every 1 deg
 of joint motion and 5 mm of TCP travel, with the fold state interpolated alongside, for:
 reachability, joint limits, singularities, collisions (named pairs), clearance below the cell's
-limit, and joint speeds at the planned TCP speed. Writes CHECK.json (format fabkit.check/1) with
-the toolpath's sha256; exit 1 if there is any problem, 2 for bad input (including a PATH.json
-whose stored sha256 does not match its waypoints).
+limit, and joint speeds at the planned TCP speed. Writes CHECK.json (format fabkit.check/2) with
+the toolpath's sha256, the cell file's sha256 and the FOLD file used (path and sha256) - the very
+report `sim.check.check_toolpath` returns; exit 1 if there is any problem, 2 for bad input
+(including a PATH.json whose stored sha256 does not match the document, a changed FOLD file, and
+non-finite or absurd coordinates).
 
 Renders (offscreen, EGL or OSMesa): --render F.png draws waypoint K (default: the first problem,
 else the middle of the fold) with an offending pair in red; --render F.mp4 plays the whole program.
@@ -27,7 +30,7 @@ example:
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("toolpath", metavar="PATH.json", help="toolpath (fabkit.toolpath/1)")
+    parser.add_argument("toolpath", metavar="PATH.json", help="toolpath (fabkit.toolpath/2)")
     parser.add_argument("--cell", required=True, metavar="CELL.toml", help="robot cell description")
     parser.add_argument("-o", "--output", required=True, metavar="CHECK.json", help="check report to write")
     parser.add_argument("--fold", metavar="SEQ.fold", help="fold states of the panel (default: the FOLD file "
@@ -82,20 +85,9 @@ def run(args) -> int:
         raise InputError("would overwrite the toolpath", source=str(out))
 
     from robot.cell import load_cell
-    from robot.toolpath import Toolpath
-    from sim.check import CheckSettings, check_program, fold_file_of, grip_face_of, program_from_toolpath
+    from sim.check import CheckSettings, run_toolpath_check
 
     cell = load_cell(args.cell)
-    tp = Toolpath.load(args.toolpath)  # refuses a stored sha256 that does not match the waypoints
-    prog = program_from_toolpath(tp, cell)
-
-    panel, fold_path = None, None
-    if not args.no_panel:
-        fold_path = Path(args.fold) if args.fold else fold_file_of(tp, Path(args.toolpath).parent)
-        if fold_path is not None:
-            # the recorded hash belongs to the file the source names, not to a --fold override
-            panel = _load_panel(fold_path, cell, grip_face_of(tp), args.thickness, prog,
-                                None if args.fold else tp.source)
 
     t0 = time.perf_counter()
     with progress(args, "checking") as advance:
@@ -105,13 +97,11 @@ def run(args) -> int:
             advance(done - seen[0], total=total)
             seen[0] = done
 
-        report, dense = check_program(prog, cell, panel, CheckSettings(), on_progress=on_progress)
+        # the library check: refuses an edited PATH.json, loads and verifies the FOLD it names (or --fold)
+        result = run_toolpath_check(args.toolpath, cell, fold=args.fold, use_panel=not args.no_panel,
+                                    thickness=args.thickness, settings=CheckSettings(), on_progress=on_progress)
     elapsed = time.perf_counter() - t0
-    if tp.cell != cell.name:
-        import dataclasses
-
-        report = dataclasses.replace(report, notes=report.notes + (
-            f"the toolpath was planned for cell {tp.cell!r} and checked in {cell.name!r}",))
+    report, dense, prog, panel, fold_path = result.report, result.dense, result.program, result.panel, result.fold_path
     write_json(out, report.to_json())
 
     if not args.quiet:
@@ -133,41 +123,6 @@ def run(args) -> int:
         m, _ = build_cell_model(cell, panel)
         view(m, cell, dense.q, panel=panel, states=dense.state, dt=dense.dt)
     return 0 if report.ok else 1
-
-
-def tp_source_sha(source) -> str | None:
-    """The FOLD file hash a toolpath's source records (`source.sha256`), if any."""
-    if isinstance(source, dict) and isinstance(source.get("sha256"), str) and len(source["sha256"]) == 64:
-        return source["sha256"]
-    return None
-
-
-def _load_panel(fold_path: Path, cell, grip_face, thickness, prog, prog_source=None):
-    from fabkit.io.fold import load_fold
-    from sim.panel import DEFAULT_THICKNESS, panel_from_fold
-
-    if not fold_path.exists():
-        raise InputError("FOLD file named by the toolpath's source not found (pass --fold or --no-panel)",
-                         source=str(fold_path))
-    want = tp_source_sha(prog_source)
-    if want:
-        import hashlib
-
-        got = hashlib.sha256(fold_path.read_bytes()).hexdigest()
-        if got != want:
-            raise InputError(f"FOLD file has sha256 {got[:12]}…, the toolpath was planned from {want[:12]}… "
-                             "(the fold states changed since planning)", source=str(fold_path))
-    model = load_fold(fold_path)
-    try:
-        panel = panel_from_fold(model, cell.fixture, grip_face_id=grip_face,
-                                thickness=thickness or DEFAULT_THICKNESS, source=str(fold_path))
-    except ValueError as exc:
-        raise InputError(str(exc), source=str(fold_path)) from None
-    top = int(prog.states.max()) if len(prog) else 0
-    if top > panel.n_states - 1:
-        raise InputError(f"the toolpath uses fold state {top} but the file has {panel.n_states} states",
-                         source=str(fold_path))
-    return panel
 
 
 def _summary(args, report, elapsed: float, fold_path) -> None:

@@ -187,7 +187,7 @@ def run(args) -> int:
         if st.status in ("fail", "error", "skipped"):
             failed_upstream = True  # every later stage needs this stage's output
     if not args.no_dry_run:
-        dry = Stage("send", ["send", p("path.json"), "--check", p("check.json")])
+        dry = Stage("send", ["send", p("path.json"), "--check", p("check.json"), "--cell", args.cell])
         if failed_upstream:
             dry.status, dry.message = "skipped", "needs an earlier stage"
         else:

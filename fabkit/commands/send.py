@@ -1,8 +1,10 @@
 """`fabkit send`: send a checked toolpath to a UR controller over RTDE with ur_rtde."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import signal
 import sys
 
 from fabkit.commands._common import add_common, progress, say, write_report
@@ -10,25 +12,33 @@ from fabkit.errors import InputError
 
 HELP = """Send a checked toolpath (PATH.json) to a UR controller over RTDE with ur_rtde.
 
-Refuses unless CHECK.json (from `fabkit check`) passed and was made for this very toolpath
-(its toolpath_sha256 equals the toolpath's recomputed hash). Preflight over the dashboard:
-robot mode RUNNING, safety NORMAL, remote control on. The path goes out as blended movePath
-chunks, asynchronously, while the RTDE receive stream is watched (the controller timestamp must
-advance). On any fault the arm is stopped and the command exits 1 naming the last completed
-waypoint; `--resume-from N` continues from waypoint N.
+Before any connection: refuses (exit 2, one line naming what differs) unless CHECK.json passed
+with no problems and was made for this very toolpath, cell file and FOLD file (their sha256s,
+recomputed now, equal the ones the toolpath and the check recorded), and unless every joint
+target, speed, acceleration and blend radius is inside the cell's limits; then runs the check
+again on exactly what it is about to send and refuses on any problem. A check that failed exits 1.
 
-ur_rtde runs in a supervised worker process with a timeout on every call, so a crashing or
-hanging ur_rtde never takes this command with it.
+Preflight: robot model, remote control, and the arm where the send starts (waypoint 0, or with
+--resume-from N on the segment into waypoint N, position and orientation) - all read-only; then
+power on (--power-on), unlock (--unlock), safety NORMAL. The path goes out as blended movePath
+chunks, asynchronously, with the controller's RTDE watchdog armed, while the receive stream is
+watched. On any fault, Ctrl-C or SIGTERM the arm is stopped and the command exits 1 (130 when
+interrupted) naming the last completed waypoint; if this command or its ur_rtde worker dies,
+the watchdog stops the arm. --log is written as it goes (JSON lines).
 
 Example (against the controller stand-in):
   fabkit ursim --host 127.0.0.2 &
-  fabkit send PATH.json --check CHECK.json --host 127.0.0.2 --log send.log
+  fabkit send PATH.json --check CHECK.json --cell CELL.toml --host 127.0.0.2 --log send.log
 """
 
 
 def add_arguments(parser) -> None:
     parser.add_argument("toolpath", metavar="PATH.json", help="toolpath from `fabkit toolpath`")
     parser.add_argument("--check", required=True, metavar="CHECK.json", help="passing check report of this toolpath")
+    parser.add_argument("--cell", required=True, metavar="CELL.toml", help="the cell file the toolpath was planned "
+                        "and checked in")
+    parser.add_argument("--fold", metavar="SEQ.fold", help="the FOLD file the toolpath was planned from (default: "
+                        "the one the check used, else the one the toolpath names)")
     parser.add_argument("--host", default=os.environ.get("FABKIT_UR_HOST"),
                         help="controller address (default: $FABKIT_UR_HOST)")
     parser.add_argument("--power-on", action="store_true", help="power on and release the brakes if needed")
@@ -43,21 +53,15 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
-def _load_check(path: str, sha: str) -> dict:
+def _load_check(path: str) -> dict:
     from fabkit.io.jsonfile import load_json
 
-    check = load_json(path, "JSON check report", missing="check report not found")
-    if not isinstance(check, dict) or check.get("format") != "fabkit.check/1":
-        raise InputError("not a fabkit.check/1 report", source=path)
-    if not isinstance(check.get("ok"), bool):
-        raise InputError("ok: expected true or false", source=path)
-    if check.get("toolpath_sha256") != sha:
-        raise InputError(f"toolpath_sha256 {str(check.get('toolpath_sha256'))[:12]}... does not match the toolpath "
-                         f"({sha[:12]}...): this check was made for another toolpath", source=path)
-    return check
+    return load_json(path, "JSON check report", missing="check report not found")
 
 
 def run(args) -> int:
+    from robot.cell import load_cell
+    from robot.interlock import CheckFailedError, InterlockError
     from robot.sender import SendError, SendSettings, send_toolpath
     from robot.toolpath import Toolpath
 
@@ -68,26 +72,22 @@ def run(args) -> int:
     if not args.stall > 0:
         raise InputError("must be positive", source="--stall")
     tp = Toolpath.load(args.toolpath)
-    check = _load_check(args.check, tp.sha256)
-    if not check["ok"]:
-        problems = check.get("problems") or []
-        first = problems[0] if problems and isinstance(problems[0], dict) else {}
-        print(f"fabkit send: refusing to send: {args.check} reports {len(problems)} problem(s)"
-              + (f", first at waypoint {first.get('waypoint')}: {first.get('kind')} {first.get('detail', '')}"
-                 if first else ""), file=sys.stderr)
-        write_report(args, {"ok": False, "sent": False, "reason": "check failed", "check": args.check})
-        return 1
+    cell = load_cell(args.cell)
+    check = _load_check(args.check)
     settings = SendSettings(host=args.host, chunk=args.chunk, resume_from=args.resume_from,
                             power_on=args.power_on, unlock=args.unlock, stall_s=args.stall)
-    if args.log:
-        from fabkit.io.atomic import atomic_write
-
-        with atomic_write(args.log) as fh:
-            def log(event, fh=fh):
-                fh.write(json.dumps(event, default=_plain) + "\n")
-            result = _send(args, tp, settings, log, send_toolpath, SendError)
-    else:
-        result = _send(args, tp, settings, None, send_toolpath, SendError)
+    job = dict(check=check, cell=cell, fold=args.fold, base_dir=os.path.dirname(args.toolpath) or ".")
+    try:
+        with _log_file(args.log) as log, _sigterm_interrupts():
+            result = _send(args, tp, settings, log, job, send_toolpath)
+    except CheckFailedError as exc:
+        print(f"fabkit send: refusing to send: {args.check}: {exc}", file=sys.stderr)
+        write_report(args, {"ok": False, "sent": False, "reason": "check failed", "check": args.check})
+        return 1
+    except InterlockError as exc:
+        raise InputError(f"refusing to send: {exc}", source=args.toolpath) from None
+    except SendError as exc:
+        raise InputError(str(exc), source=args.toolpath) from None
     n = len(tp)
     if result.ok:
         say(args, f"sent {n - args.resume_from} of {n} waypoints to {args.host} in {result.elapsed_s:.1f} s "
@@ -98,21 +98,49 @@ def run(args) -> int:
         print(f"fabkit send: stopped: {result.reason}; last completed waypoint {result.last_completed} of {n - 1}"
               + (f"; continue with --resume-from {nxt}" if 0 <= nxt < n else ""), file=sys.stderr)
     write_report(args, {"ok": result.ok, "sent": True, "host": args.host, "toolpath": args.toolpath,
-                        "toolpath_sha256": tp.sha256, "resume_from": args.resume_from, **result.to_json()})
+                        "resume_from": args.resume_from, **result.to_json()})
     return 0 if result.ok else 1
 
 
-def _send(args, tp, settings, log, send_toolpath, SendError):
+@contextlib.contextmanager
+def _log_file(path):
+    """The send log, line-buffered JSON lines written as the send goes (what a crash leaves is on
+    disk); None without --log."""
+    if not path:
+        yield None
+        return
+    with open(path, "w", buffering=1, encoding="utf-8") as fh:
+        def log(event, fh=fh):
+            fh.write(json.dumps(event, default=_plain) + "\n")
+        yield log
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts():
+    """SIGTERM during the send acts as Ctrl-C: the sender stops the arm and the log is closed."""
+    def on_term(signum, frame):
+        raise KeyboardInterrupt("SIGTERM")
+
+    try:
+        old = signal.signal(signal.SIGTERM, on_term)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _send(args, tp, settings, log, job, send_toolpath):
     n = len(tp)
     with progress(args, "sending", total=n) as advance:
         def on_progress(k, st):
             p = st.get("tcp_pose") or [0, 0, 0]
             advance(0, completed=k + 1, description=f"waypoint {k + 1}/{n} "
                     f"TCP {p[0]:+.3f} {p[1]:+.3f} {p[2]:+.3f} m")
-        try:
-            return send_toolpath(tp, settings, log=log, on_progress=on_progress)
-        except SendError as exc:
-            raise InputError(str(exc), source=args.toolpath) from None
+        return send_toolpath(tp, job["check"], job["cell"], settings, fold=job["fold"], base_dir=job["base_dir"],
+                             log=log, on_progress=on_progress)
 
 
 def _plain(obj):

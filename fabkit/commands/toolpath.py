@@ -17,7 +17,8 @@ through every fold state: home -> approach (movej) -> grip (movel onto the face,
 -> release (gripper off) -> retract -> home. Every joint solution is verified by forward kinematics;
 one arm configuration (shoulder/elbow/wrist branch) is kept through all linear moves.
 
-Writes PATH.json (format fabkit.toolpath/1, with a sha256 over the waypoints) and, with --script,
+Writes PATH.json (format fabkit.toolpath/2, with one sha256 over the whole document: robot, cell
+name and cell file sha256, TCP, gripper, the FOLD file's sha256, every waypoint) and, with --script,
 a URScript program (def ... end) with set_tcp, movej/movel with a/v/r, gripper outputs and progress
 in an output integer register.
 
@@ -79,10 +80,12 @@ def run(args) -> int:
     from robot.motion import MotionParams
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from robot.urscript import PROGRESS_REGISTER, write_urscript
+    from sim.panel import check_fold_coordinates
 
     _check_args(args)
     cell = load_cell(args.cell)
     model = load_fold(args.fold)
+    check_fold_coordinates(model, source=args.fold)  # a vertex at 1e300 is bad input, not a motion
     if model.n_frames == 0:
         raise InputError("has no fold states (no file_frames)", source=args.fold)
     if args.grip_face is not None and "middle" not in model.faces_data:
