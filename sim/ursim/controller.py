@@ -572,6 +572,7 @@ class Controller:
                 "speed_fraction": self.speed_fraction, "last_error": self.last_error,
                 "payload": self.payload, "payload_cog": self.payload_cog.tolist(),
                 "operational_mode": self.operational_mode, "clients": self.clients.count(),
+                "pending_faults": len(self.pending_faults),
                 "rtde_clients": len(self.rtde_conns), "log_tail": list(self.log_lines)[-20:],
             }
 
