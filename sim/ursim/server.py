@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import socket
+import sys
 import threading
 from pathlib import Path
 
@@ -32,6 +33,9 @@ class StandIn:
     def __init__(self, config: ControllerConfig, programs_dir: Path | None = None):
         self.ctrl = Controller(config)
         self.done = threading.Event()
+        # A busy client thread keeps the GIL for up to the switch interval (5 ms by default): far
+        # more than the 2 ms period. A tenth of the period lets the tick thread in on time.
+        sys.setswitchinterval(min(sys.getswitchinterval(), self.ctrl.period / 10))
         ports = config.ports
         self._sockets = []
         try:
