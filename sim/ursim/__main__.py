@@ -2,19 +2,27 @@
 import argparse
 import sys
 
-from fabkit.commands import ursim
 from fabkit.errors import InputError
+from sim.ursim.cli import HELP, add_arguments, run_stand_in
+
+PROG = "python -m sim.ursim"
+
+
+class _Parser(argparse.ArgumentParser):
+    """Usage errors are one line and exit 2 (fabkit's CLI contract)."""
+
+    def error(self, message: str):  # noqa: D401 - argparse API
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sim.ursim", description=ursim.HELP,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    ursim.add_arguments(parser)
+    parser = _Parser(prog=PROG, description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_arguments(parser)
     args = parser.parse_args(argv)
     try:
-        return ursim.run(args)
+        return run_stand_in(args)
     except InputError as exc:
-        print(f"python -m sim.ursim: error: {exc}", file=sys.stderr)
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
         return 2
 
 

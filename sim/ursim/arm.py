@@ -16,9 +16,11 @@ from sim.ursim.motion import Trajectory
 class Arm:
     """Joint state of the simulated arm and whatever is moving it."""
 
-    def __init__(self, q0, joint_speed_max):
+    def __init__(self, q0, joint_speed_max, joint_accel_max: float = 40.0):
         self.q = np.array(q0, dtype=np.float64)
         self.qd = np.zeros(6)
+        self.qdd = np.zeros(6)
+        self.joint_accel_max = float(joint_accel_max)
         self.target_q = self.q.copy()
         self.joint_speed_max = np.asarray(joint_speed_max, dtype=np.float64)
         self.mode = "idle"  # idle | traj | servo | speed
@@ -88,6 +90,7 @@ class Arm:
         self._finish(False)
         self.mode = "idle"
         self.qd[:] = 0.0
+        self.qdd[:] = 0.0
         self.target_q = self.q.copy()
 
     @property
@@ -96,14 +99,11 @@ class Arm:
 
     # ---- the periodic step ---------------------------------------------------------------------
     def step(self, dt: float, fraction: float = 1.0, now: float = 0.0) -> None:
-        q_prev = self.q.copy()
+        q_prev, qd_prev = self.q.copy(), self.qd.copy()
         if self.mode == "traj":
             self._step_traj(fraction)
         elif self.mode == "servo":
-            d = self._servo_target - self.q
-            lim = self.joint_speed_max * dt
-            self.q = self.q + np.clip(d, -lim, lim)
-            self.target_q = self._servo_target.copy()
+            self._step_servo(dt, fraction)
         elif self.mode == "speed":
             if self._speed_deadline is not None and now >= self._speed_deadline:
                 self._speed_target = np.zeros(6)
@@ -119,6 +119,20 @@ class Arm:
                     cb(True)
         if self.mode != "speed":
             self.qd = (self.q - q_prev) / dt
+        self.qdd = (self.qd - qd_prev) / dt
+
+    def _step_servo(self, dt: float, fraction: float) -> None:
+        """Toward the servo target at the joint speed limit (times the speed slider) with the joint
+        acceleration bounded, braking so as to stop on the target (lookahead and gain ignored)."""
+        d = self._servo_target - self.q
+        a = self.joint_accel_max
+        v_stop = np.sqrt(2.0 * a * np.abs(d))  # the speed from which the arm can still stop on target
+        v_want = np.sign(d) * np.minimum(self.joint_speed_max * fraction, v_stop)
+        v = self.qd + np.clip(v_want - self.qd, -a * dt, a * dt)
+        step = v * dt
+        arrive = (np.abs(step) >= np.abs(d)) & (step * d >= 0)  # the last step lands exactly (|v| <= 2 a dt here)
+        self.q = np.where(arrive, self._servo_target, self.q + step)
+        self.target_q = self._servo_target.copy()
 
     def _step_traj(self, fraction: float) -> None:
         tr = self._traj

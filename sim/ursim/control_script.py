@@ -23,7 +23,8 @@ import numpy as np
 
 from robot import kinematics as K
 from sim.ursim.motion import PlanError, Waypoint, matrix_to_pose, plan_moves, pose_to_matrix
-from sim.ursim.urscript import Killed, ScriptError, parse_statements, path_waypoints, resolve_fk_targets
+from sim.ursim.urscript import (Killed, ScriptError, parse_statements, path_waypoints, record_waypoints,
+                                resolve_fk_targets)
 
 HEADER = "def rtde_control():"
 REALTIME = {24, 11, 9, 10, 6, 25, 26, 27, 38, 58, 66, 67, 68, 69, 70, 71}
@@ -87,20 +88,25 @@ class ControlScript:
 
     # ---- registers ---------------------------------------------------------------------------
     def _i(self, k: int) -> int:
-        return int(self.ctrl.inputs[f"input_int_register_{k + self.off_i}"])
+        with self.ctrl.lock:
+            return int(self.ctrl.inputs[f"input_int_register_{k + self.off_i}"])
 
     def _d(self, k: int) -> float:
-        return float(self.ctrl.inputs[f"input_double_register_{k + self.off_f}"])
+        with self.ctrl.lock:
+            return float(self.ctrl.inputs[f"input_double_register_{k + self.off_f}"])
 
     def _vec(self, k: int) -> np.ndarray:
-        return np.array([self._d(k + j) for j in range(6)])
+        with self.ctrl.lock:  # one RTDE package's values, never half of the next
+            return np.array([self._d(k + j) for j in range(6)])
 
     def _out_i(self, k: int, value: int) -> None:
-        self.ctrl.out_int[k + self.off_i] = int(value)
+        with self.ctrl.lock:
+            self.ctrl.out_int[k + self.off_i] = int(value)
 
     def _out_vec(self, k: int, vec) -> None:
-        for j, v in enumerate(np.asarray(vec, dtype=np.float64).reshape(-1)[:6]):
-            self.ctrl.out_double[k + j + self.off_f] = float(v)
+        with self.ctrl.lock:
+            for j, v in enumerate(np.asarray(vec, dtype=np.float64).reshape(-1)[:6]):
+                self.ctrl.out_double[k + j + self.off_f] = float(v)
 
     def _write_async(self, value: int) -> None:
         """`write_async_progress_register` of the script, bit for bit."""
@@ -237,6 +243,8 @@ class ControlScript:
         i, d, vec = self._i, self._d, self._vec
         if cmd in (1, 2, 3, 4):
             target, v, a, asyn = vec(0), d(6), d(7), i(1) == 1
+            ctrl.record("register", {1: "moveJ", 2: "moveJ_IK", 3: "moveL", 4: "moveL_FK"}[cmd],
+                        **({"q": target} if cmd in (1, 4) else {"pose": target}), v=v, a=a)
             if cmd == 1:
                 wp = Waypoint("movej", v, a, q=tuple(target))
             elif cmd == 2:
@@ -249,6 +257,7 @@ class ControlScript:
         elif cmd == 45:
             if not self.path:
                 raise PlanError("move_path: no path was injected into the script")
+            record_waypoints(ctrl, "path", self.path)
             self._move(self.path, i(1) == 1)
         elif cmd in (9, 10):
             qd = vec(0)
@@ -263,24 +272,24 @@ class ControlScript:
                 self._stop_async_move()
                 ctrl.arm.servo(q)
         elif cmd in (15, 16, 42):
+            ctrl.record("register", "stop", command_id=cmd)
             with ctrl.lock:
                 ctrl.arm.stop(d(0) if cmd != 42 else 1.2)
             self._wait_rest()
         elif cmd in (33, 34):
+            ctrl.record("register", "stopL" if cmd == 33 else "stopJ", deceleration=d(0))
             asyn = i(1) == 1
             self._stop_async_move(d(0))
             with ctrl.lock:
                 ctrl.arm.stop(d(0))
             if not asyn:
                 self._wait_rest()
-        elif cmd == 17:
-            ctrl.payload = d(0)
-            if any(d(k) for k in (1, 2, 3)):
-                ctrl.payload_cog = np.array([d(1), d(2), d(3)])
-        elif cmd == 65:
-            ctrl.payload = d(0)
-            if any(d(k) for k in (1, 2, 3)):
-                ctrl.payload_cog = np.array([d(1), d(2), d(3)])
+        elif cmd in (17, 65):  # setPayload / setTargetPayload (its inertia is not carried here)
+            cog = [d(1), d(2), d(3)] if any(d(k) for k in (1, 2, 3)) else None
+            try:
+                ctrl.set_payload(d(0), cog, source="register")
+            except ValueError as exc:
+                raise PlanError(str(exc)) from None
         elif cmd == 26:
             ctrl.out_double[self.off_f] = ctrl.period
         elif cmd in (27, 58):
@@ -289,6 +298,7 @@ class ControlScript:
             self._out_vec(0, ctrl.tcp_pose)
         elif cmd == 29:
             ctrl.set_tcp(vec(0))
+            ctrl.record("register", "setTcp", pose=vec(0))
         elif cmd in (30, 46):
             self._out_vec(0, self._ik(vec(0), vec(6) if cmd == 30 else None))
         elif cmd in (60, 61):

@@ -3,8 +3,18 @@
 One `Controller` per process. A tick thread runs at the controller period (500 Hz for e-Series
 versions, 125 Hz for CB3) and, each tick, advances the arm, applies the safety checks, wakes the
 running program (URScript's `sync()`), and streams RTDE data packages to every started
-connection. The servers (`rtde_server`, `dashboard`, `script_ports`, `admin`) only read and write
-the state here under `Controller.lock`.
+connection.
+
+Ownership of shared state, one rule: every attribute of `Controller` (arm, registers, modes,
+programs, scheduled faults, the client registry, the RTDE connection list and input owners, the
+command record) and every value the tick thread reads from another thread (an RTDE connection's
+published output recipe and stream flags) is read and written only while holding
+`Controller.lock` (a re-entrant lock). What a connection keeps for itself (its receive buffer,
+its socket) belongs to that connection's thread. Sockets are written outside the lock, and the
+log has its own leaf lock (nothing is acquired under it), so no thread holds the controller lock
+while it waits on a client. A lock rather than one event loop: the programs (ur_rtde's control
+script, URScript) are blocking threads on a real controller too, the tick must keep its period
+whatever a client does, and every server stays a small blocking loop.
 """
 from __future__ import annotations
 
@@ -20,6 +30,7 @@ import numpy as np
 
 from robot import kinematics as K
 from sim.ursim.arm import Arm
+from sim.ursim.clients import Clients
 from sim.ursim.motion import matrix_to_pose, pose_to_matrix
 from sim.ursim.rtde_vars import INPUTS
 
@@ -34,6 +45,12 @@ SAFETY_NORMAL, SAFETY_PROTECTIVE_STOP, SAFETY_ROBOT_ESTOP = 1, 3, 7
 # stopped, 10 stopped due to safety
 _SAFETY_BITS = {SAFETY_NORMAL: 1 << 0, SAFETY_PROTECTIVE_STOP: (1 << 2) | (1 << 10),
                 SAFETY_ROBOT_ESTOP: (1 << 6) | (1 << 7) | (1 << 10)}
+#: Commands kept by `Controller.record` (the oldest are forgotten first).
+RECORD_MAX = 20000
+#: Joint acceleration bound of servo motion and the configuration data (rad/s^2, URSim 5.8's value).
+JOINT_ACCEL_MAX = 40.0
+#: Faults that can wait at once (admin `at_progress` / `after`).
+MAX_PENDING_FAULTS = 100
 #: q = [0, -90, 90, -90, -90, 0] deg, UR's home configuration (tool pointing down).
 HOME_Q = (0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0)
 
@@ -57,6 +74,7 @@ class ControllerConfig:
     log_file: str | None = None
     verbose: bool = False
     rt_priority: int = 0  # > 0: run the tick thread SCHED_FIFO at this priority (needs the privilege)
+    robot_mode_data_46: bool = False  # primary/secondary robot mode sub-package of 3.2-3.4 (python-urx 0.11)
 
     @property
     def cb3(self) -> bool:
@@ -74,10 +92,17 @@ class Controller:
         self.tick_cond = threading.Condition()
         self.tick_index = 0
         self.timestamp = 0.0
-        self.arm = Arm(config.q0, self.model.joint_speed_max)
+        self.arm = Arm(config.q0, self.model.joint_speed_max, JOINT_ACCEL_MAX)
         self.tcp = np.eye(4)
         self.payload = 0.0
         self.payload_cog = np.zeros(3)
+        self.payload_inertia = np.zeros(6)
+        #: jointMaxAcceleration of the configuration data (rad/s^2, URSim 5.8); servo motion is bounded by it
+        self.joint_accel_max = np.full(6, JOINT_ACCEL_MAX)
+        self.tool_output_mode = 0  # RTDE tool_output_mode / tool mode info: standard digital outputs
+        self.tool_digital_output_modes = [1, 1]  # 1 = sinking (NPN), the controller's default
+        self.interface_streams: list = []  # client_interfaces.Stream of the 30001-30003 clients
+        self.execution_time_ms = 0.0  # RTDE actual_execution_time: the last tick's computing time
         self.inputs = {name: (0.0 if t == "DOUBLE" else (np.zeros(6) if t == "VECTOR6D" else 0))
                        for name, t in INPUTS.items()}
         self.out_int = [0] * 48
@@ -90,6 +115,8 @@ class Controller:
         self.safety_event_time = 0.0
         self.program = None  # the running program (control_script.ControlScript / urscript.Program)
         self.paused = False
+        self.operational_mode = "NONE"  # dashboard `get operational mode`: NONE until one is set
+        self.operational_mode_by_dashboard = False
         self.loaded_program: str | None = None
         self.owners: dict[str, int] = {}
         self.input_written: dict[str, float] = {}  # last RTDE write per input (for the watchdog)
@@ -99,6 +126,9 @@ class Controller:
         self.stream_decimate = 1
         self.pending_faults: list[dict] = []
         self.log_lines: deque = deque(maxlen=2000)
+        self._log_lock = threading.Lock()
+        self._record: deque = deque(maxlen=RECORD_MAX)
+        self.clients = Clients(self)
         self.last_error: str | None = None
         self._log_fh = open(config.log_file, "a", encoding="utf-8") if config.log_file else None
         self._stop = threading.Event()
@@ -129,12 +159,35 @@ class Controller:
 
     def log(self, text: str) -> None:
         line = f"{self.timestamp:10.3f} {text}"
-        self.log_lines.append(line)
-        if self._log_fh:
-            self._log_fh.write(line + "\n")
-            self._log_fh.flush()
-        if self.cfg.verbose:
-            print(line, file=sys.stderr, flush=True)
+        with self._log_lock:
+            self.log_lines.append(line)
+            if self._log_fh:
+                self._log_fh.write(line + "\n")
+                self._log_fh.flush()
+            if self.cfg.verbose:
+                print(line, file=sys.stderr, flush=True)
+
+    # ---- the command record (admin `record`) -------------------------------------------------
+    def record(self, source: str, command: str, **values) -> None:
+        """Remember one received motion or tool command exactly as the stand-in will act on it.
+
+        `source`: "register" (ur_rtde's register protocol: doubles bit for bit), "path" (a path
+        injected into ur_rtde's control script: numbers as printed in the script text), "urscript"
+        (a URScript program), "rtde_io" (RTDE input registers). The last `RECORD_MAX` are kept.
+        """
+        entry = {"t": self.timestamp, "source": source, "command": command}
+        for k, v in values.items():
+            entry[k] = [float(x) for x in np.asarray(v, dtype=np.float64).reshape(-1)] if np.ndim(v) else v
+        with self.lock:
+            self._record.append(entry)
+
+    def recorded(self) -> list[dict]:
+        with self.lock:
+            return list(self._record)
+
+    def clear_record(self) -> None:
+        with self.lock:
+            self._record.clear()
 
     # ---- derived state -----------------------------------------------------------------------
     @property
@@ -155,6 +208,16 @@ class Controller:
     @property
     def tcp_pose(self) -> np.ndarray:
         return self._tcp_pose
+
+    @property
+    def tcp_speed(self) -> np.ndarray:
+        return self._tcp_speed
+
+    @property
+    def speed_scaling(self) -> float:
+        """RTDE `speed_scaling` (the trajectory limiter): 1 while moving freely, 0 while paused. The
+        slider is `target_speed_fraction`; the arm runs at their product (reference §5.1)."""
+        return 0.0 if self.paused else 1.0
 
     def can_move(self) -> bool:
         return self.robot_mode == ROBOT_RUNNING and self.safety_mode == SAFETY_NORMAL
@@ -203,6 +266,10 @@ class Controller:
                 m = int(values["tool_digital_output_mask"]) << 16
                 v = int(values.get("tool_digital_output", 0)) << 16
                 self.digital_out = (self.digital_out & ~m) | (v & m)
+            for key in ("standard", "configurable", "tool"):
+                if values.get(f"{key}_digital_output_mask"):
+                    self.record("rtde_io", f"set_{key}_digital_output", mask=int(values[f"{key}_digital_output_mask"]),
+                                value=int(values.get(f"{key}_digital_output", 0)))
             if values.get("speed_slider_mask"):
                 self.speed_fraction = float(np.clip(values.get("speed_slider_fraction", 1.0), 0.0, 1.0))
             if "standard_analog_output_mask" in values:
@@ -239,18 +306,48 @@ class Controller:
             "runtime_state": lambda: self.runtime_state, "robot_status_bits": lambda: self.robot_status_bits,
             "safety_status_bits": lambda: self.safety_status_bits,
             "actual_digital_output_bits": lambda: self.digital_out,
-            "speed_scaling": lambda: self.speed_fraction if self.runtime_state == RUNTIME_PLAYING else 1.0,
+            "speed_scaling": lambda: self.speed_scaling,
             "target_speed_fraction": lambda: self.speed_fraction,
             "standard_analog_output0": lambda: self.analog_out[0],
             "standard_analog_output1": lambda: self.analog_out[1],
             "joint_mode": lambda: _JOINT_MODE_RUNNING if self.robot_mode == ROBOT_RUNNING else _JOINT_MODE_IDLE,
             "joint_temperatures": lambda: _TEMPS, "actual_main_voltage": lambda: 48.0,
             "actual_robot_voltage": lambda: 48.0 if self.robot_mode >= 4 else 0.0,
-            "actual_joint_voltage": lambda: _VOLTS, "actual_execution_time": lambda: 0.05,
+            "actual_joint_voltage": lambda: _VOLTS, "actual_execution_time": lambda: self.execution_time_ms,
             "actual_tool_accelerometer": lambda: _ACC, "payload": lambda: self.payload,
-            "payload_cog": lambda: self.payload_cog, "tcp_offset": lambda: self.tcp_offset_pose(),
+            "payload_cog": lambda: self.payload_cog, "payload_inertia": lambda: self.payload_inertia,
+            "target_qdd": lambda: arm.qdd, "elbow_velocity": lambda: self._elbow_velocity(),
+            "tool_output_mode": lambda: self.tool_output_mode,
+            "tool_digital_output0_mode": lambda: self.tool_digital_output_modes[0],
+            "tool_digital_output1_mode": lambda: self.tool_digital_output_modes[1],
+            "actual_configurable_digital_output_bits": lambda: (self.digital_out >> 8) & 0xFF,
+            "tool_output_voltage": lambda: 24 if self.robot_mode >= 4 else 0,
+            "tool_mode": lambda: _JOINT_MODE_RUNNING[0] if self.robot_mode == ROBOT_RUNNING else 255,
+            "tool_temperature": lambda: 30.0, "target_moment": lambda: _ZERO6, "tcp_offset": lambda: self.tcp_offset_pose(),
             "elbow_position": lambda: K.fk_frames(self.model, arm.q)[3, :3, 3],
         }
+
+    def _elbow_velocity(self) -> np.ndarray:
+        q, qd = self.arm.q, self.arm.qd
+        if not np.any(qd):
+            return np.zeros(3)
+        h = 1e-6
+        return (K.fk_frames(self.model, q + qd * h)[3, :3, 3] - K.fk_frames(self.model, q)[3, :3, 3]) / h
+
+    def set_payload(self, mass: float, cog=None, inertia=None, source: str = "urscript") -> None:
+        """`set_payload(m, cog)` / ur_rtde `setPayload`: store and report the payload (RTDE
+        `payload`, `payload_cog`, `payload_inertia`, the real-time package, admin `state`). A
+        payload changes no motion timing in the stand-in (the arm is kinematic; UR documents no
+        timing law for it)."""
+        if not (np.isfinite(mass) and 0.0 <= mass <= 1000.0):
+            raise ValueError(f"set_payload: mass {mass} kg is not a payload")
+        with self.lock:
+            self.payload = float(mass)
+            if cog is not None:
+                self.payload_cog = np.asarray(cog, dtype=np.float64).reshape(3)
+            self.payload_inertia = np.zeros(6) if inertia is None else np.asarray(inertia, dtype=np.float64)
+            self.log(f"payload {self.payload:g} kg, CoG {self.payload_cog.tolist()} ({source})")
+        self.record(source, "set_payload", mass=float(mass), cog=self.payload_cog.copy())
 
     # ---- program management ------------------------------------------------------------------
     def start_program(self, program) -> bool:
@@ -370,6 +467,7 @@ class Controller:
             delay = t0 + k * period - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
+            t_tick = time.perf_counter()
             steps = 1
             if delay < -period:  # fell behind: skip the missed ticks (a controller sends the newest)
                 missed = int(-delay / period)
@@ -389,9 +487,11 @@ class Controller:
                     if self.program is not None and self.program.running:
                         self.program.kill("stand-in error")
                 self.tick_index = k
+                self.execution_time_ms = (time.perf_counter() - t_tick) * 1e3
             with self.tick_cond:
                 self.tick_cond.notify_all()
             self._stream(k)
+            self._stream_interfaces(k)
 
     def _stream(self, k: int) -> None:
         if time.monotonic() < self.stall_until:
@@ -403,32 +503,62 @@ class Controller:
                 self.log(f"rtde client {conn.id}: cannot send ({type(exc).__name__}: {exc}): closing")
                 conn.close()
 
+    def _stream_interfaces(self, k: int) -> None:
+        """The real-time package every period to 30003 clients, the robot state every 100 ms to
+        30001/30002 clients (client_interfaces)."""
+        with self.lock:
+            streams = list(self.interface_streams)
+        if not streams:
+            return
+        from sim.ursim import client_interfaces as ci
+
+        every = max(1, int(round(ci.STATE_PERIOD_S / self.period)))
+        rt = [st for st in streams if st.kind == "realtime"]
+        state = [st for st in streams if st.kind != "realtime"] if k % every == 0 else []
+        if not rt and not state:
+            return
+        snap = ci.snapshot(self)
+        if rt:
+            pkg = ci.realtime_package(self, snap)
+            for st in rt:
+                st.offer(pkg)
+        if state:
+            msg = ci.robot_state_message(self, snap)
+            for st in state:
+                st.offer(msg)
+
     # ---- scheduled faults --------------------------------------------------------------------
     def schedule_fault(self, fault: dict) -> None:
         """Queue a fault; an `at_progress` fault only counts progress written after it was queued."""
         with self.lock:
+            if len(self.pending_faults) >= MAX_PENDING_FAULTS:
+                raise ValueError(f"{MAX_PENDING_FAULTS} faults are already scheduled")
             fault.setdefault("armed_word", self.out_int[2])
             self.pending_faults.append(fault)
 
     def _run_pending_faults(self) -> None:
+        """Run the due faults (validated when scheduled); a fault runs once, whatever happens."""
         if not self.pending_faults:
             return
         word = self.out_int[2]
         progress = word & 0x7FFF if word & 0x8000 else None
-        keep = []
+        keep, due_now = [], []
         for f in self.pending_faults:
             if f.get("armed_word") is not None and word != f["armed_word"]:
                 f["armed_word"] = None  # the async status changed since the fault was queued
             due = (f.get("at_time") is not None and time.monotonic() >= f["at_time"]) or \
                   (f.get("at_progress") is not None and f.get("armed_word") is None and progress is not None
                    and progress >= f["at_progress"])
-            if due:
-                from sim.ursim.admin import apply_fault
-
-                apply_fault(self, f["kind"], f.get("arg"))
-            else:
-                keep.append(f)
+            (due_now if due else keep).append(f)
         self.pending_faults = keep
+        if due_now:
+            from sim.ursim.admin import apply_fault
+
+            for f in due_now:
+                try:
+                    apply_fault(self, f["kind"], f.get("arg"))
+                except ValueError as exc:
+                    self.log(f"scheduled fault {f['kind']} not applied: {exc}")
 
     # ---- a JSON-able view for the admin channel and tests ------------------------------------
     def state(self) -> dict:
@@ -440,6 +570,9 @@ class Controller:
                 "runtime_state": self.runtime_state, "program": getattr(self.program, "name", None),
                 "arm_mode": self.arm.mode, "digital_out": self.digital_out, "out_int": self.out_int[:8],
                 "speed_fraction": self.speed_fraction, "last_error": self.last_error,
+                "payload": self.payload, "payload_cog": self.payload_cog.tolist(),
+                "operational_mode": self.operational_mode, "clients": self.clients.count(),
+                "pending_faults": len(self.pending_faults),
                 "rtde_clients": len(self.rtde_conns), "log_tail": list(self.log_lines)[-20:],
             }
 
@@ -452,3 +585,4 @@ _JOINT_MODE_IDLE = np.full(6, 250, dtype=np.int64)  # JOINT_IDLE_MODE (brakes on
 _TEMPS = np.full(6, 32.0)
 _VOLTS = np.full(6, 47.5)
 _ACC = np.array([0.0, 0.0, 9.81])
+_ZERO6 = np.zeros(6)

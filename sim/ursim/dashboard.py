@@ -3,11 +3,16 @@
 Replies are the controller's exact strings (reference ur-rtde.md §3.3); ur_rtde's DashboardClient
 compares several of them verbatim (`Stopped`, `Starting program`, `Protective stop releasing`, ...).
 `load` and `play` work on URScript files (`.script`, or a `.urp` with a `.script` of the same
-name next to it) in the programs directory given at start-up.
+name next to it) inside the programs directory given at start-up; a path that leaves it (an
+absolute path elsewhere, `..`, a symbolic link out) is `File not found`. `shutdown` answers, then
+stops the whole stand-in (as the controller PC powers off). An empty line or one the stand-in
+does not know gets `could not understand: '<line>'`; a line over `clients.MAX_LINE` bytes gets
+the same reply and the client is closed.
 """
 from __future__ import annotations
 
 import socket
+import threading
 import time
 from pathlib import Path
 
@@ -19,10 +24,15 @@ from sim.ursim.controller import (ROBOT_IDLE, ROBOT_MODES, ROBOT_POWER_OFF, ROBO
 BANNER = "Connected: Universal Robots Dashboard Server"
 
 
+_OPERATIONAL_MODES = ("manual", "automatic")
+
+
 def handle_command(ctrl, line: str, programs_dir: Path | None) -> str:
-    """The reply to one dashboard command."""
+    """The reply to one dashboard command (e-Series dashboard server document)."""
     cmd = line.strip()
     low = cmd.lower()
+    if not cmd:
+        return "could not understand: ''"
     if low == "power on":
         with ctrl.lock:
             if ctrl.robot_mode == ROBOT_POWER_OFF and ctrl.safety_mode == 1:
@@ -35,11 +45,38 @@ def handle_command(ctrl, line: str, programs_dir: Path | None) -> str:
             ctrl.robot_mode = ROBOT_POWER_OFF
         return "Powering off"
     if low == "brake release":
-        with ctrl.lock:
-            if ctrl.robot_mode in (ROBOT_IDLE, 4) and ctrl.safety_mode == 1:
+        with ctrl.lock:  # from power off the robot powers on first, then releases
+            if ctrl.robot_mode in (ROBOT_POWER_OFF, ROBOT_IDLE, 4) and ctrl.safety_mode == 1:
+                if ctrl.robot_mode == ROBOT_POWER_OFF:
+                    ctrl.log("powered on by brake release")
                 ctrl.robot_mode = ROBOT_RUNNING
                 ctrl.log("brakes released")
         return "Brake releasing"
+    if low == "version":
+        return ".".join(str(v) for v in ctrl.cfg.version)
+    if low == "get operational mode":
+        with ctrl.lock:
+            return ctrl.operational_mode
+    if low.startswith("set operational mode"):
+        arg = cmd[len("set operational mode"):].strip()
+        if arg.lower() not in _OPERATIONAL_MODES:
+            return f"Failed setting operational mode: {arg}"
+        with ctrl.lock:
+            ctrl.operational_mode = arg.upper()
+            ctrl.operational_mode_by_dashboard = True
+        return f"Operational mode '{arg}' is set"
+    if low == "clear operational mode":
+        with ctrl.lock:
+            ctrl.operational_mode_by_dashboard = False
+            mode = ctrl.operational_mode
+        return f"No longer controlling the operational mode. Current operational mode: '{mode}'."
+    with ctrl.lock:
+        reply = _query(ctrl, low)
+    return reply if reply is not None else _actions(ctrl, cmd, low, programs_dir)
+
+
+def _query(ctrl, low: str) -> str | None:
+    """Replies that read the state (called under the lock); None for the other commands."""
     if low == "robotmode":
         return f"Robotmode: {ROBOT_MODES.get(ctrl.robot_mode, 'NO_CONTROLLER')}"
     if low in ("safetystatus", "safetymode"):
@@ -54,14 +91,19 @@ def handle_command(ctrl, line: str, programs_dir: Path | None) -> str:
         return f"Program running: {'true' if ctrl.runtime_state == RUNTIME_PLAYING else 'false'}"
     if low == "unlock protective stop":
         return ctrl.unlock_protective_stop()
+    return None
+
+
+def _actions(ctrl, cmd: str, low: str, programs_dir: Path | None) -> str:
     if low == "close safety popup":
         return "closing safety popup"
     if low == "close popup":
         return "closing popup"
     if low == "stop":
-        if ctrl.runtime_state == 1 and ctrl.program is None:
-            return "Stopped"
-        ctrl.stop_program("dashboard stop")
+        with ctrl.lock:
+            if ctrl.runtime_state == 1 and ctrl.program is None:
+                return "Stopped"
+            ctrl.stop_program("dashboard stop")
         return "Stopped"
     if low == "pause":
         with ctrl.lock:
@@ -86,8 +128,11 @@ def handle_command(ctrl, line: str, programs_dir: Path | None) -> str:
         return "true" if ctrl.cfg.remote_control else "false"
     if low == "isprogramsaved":
         return f"true {Path(ctrl.loaded_program).name if ctrl.loaded_program else '<unnamed>'}"
-    if low.startswith("addtolog "):
-        ctrl.log(f"dashboard log: {cmd[9:]}")
+    if low == "addtolog" or low.startswith("addtolog "):
+        text = cmd[8:].strip()
+        if not text:
+            return "No log message to add"
+        ctrl.log(f"dashboard log: {text}")
         return "Added log message"
     if low.startswith("popup "):
         return "showing popup"
@@ -104,12 +149,19 @@ def handle_command(ctrl, line: str, programs_dir: Path | None) -> str:
 
 
 def _resolve(programs_dir: Path | None, name: str) -> Path | None:
-    if programs_dir is None:
+    """The program file `name` names inside `programs_dir`, or None (outside, missing, not a file)."""
+    if programs_dir is None or not name or "\0" in name:
         return None
+    root = programs_dir.resolve()
     p = Path(name)
-    p = p if p.is_absolute() else programs_dir / p
+    p = p if p.is_absolute() else root / p
     if p.suffix == ".urp":
         p = p.with_suffix(".script")
+    try:
+        p = p.resolve()
+        p.relative_to(root)
+    except (ValueError, OSError, RuntimeError):
+        return None
     return p if p.is_file() else None
 
 
@@ -123,28 +175,43 @@ def _load(ctrl, name: str, programs_dir: Path | None) -> str:
 
 
 def _play(ctrl, programs_dir: Path | None) -> str:
+    from sim.ursim.script_ports import MAX_SCRIPT, program_from_text
+
     with ctrl.lock:
         if ctrl.runtime_state == RUNTIME_PAUSED:
             ctrl.paused = False
             return "Starting program"
         if not ctrl.loaded_program or not ctrl.can_move():
             return "Failed to execute: play"
-        path = ctrl.loaded_program
-    from sim.ursim.script_ports import program_from_text
-
-    program = program_from_text(ctrl, Path(path).read_text(encoding="utf-8", errors="replace"), Path(path).name)
+        path = Path(ctrl.loaded_program)
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_SCRIPT + 1)
+    except OSError:
+        return "Failed to execute: play"
+    if len(data) > MAX_SCRIPT:
+        ctrl.log(f"play: {path.name} is over {MAX_SCRIPT} bytes: refused")
+        return "Failed to execute: play"
+    program = program_from_text(ctrl, data.decode("utf-8", "replace"), path.name)
+    if program is None:  # does not compile: the controller refuses to play it
+        return "Failed to execute: play"
     return "Starting program" if ctrl.start_program(program) else "Failed to execute: play"
 
 
-def serve_dashboard(ctrl, listener: socket.socket, programs_dir: Path | None = None) -> None:
-    """Answer dashboard commands with the controller's replies; `quit` ends the client."""
+def serve_dashboard(ctrl, listener: socket.socket, programs_dir: Path | None = None, shutdown=None) -> None:
+    """Answer dashboard commands with the controller's replies; `quit` ends the client, `shutdown`
+    ends the client and then calls `shutdown()` (the stand-in stops)."""
     def answer(text: str) -> tuple[str | None, bool]:
-        if not text:
-            return None, False
         reply = handle_command(ctrl, text, programs_dir)
-        ctrl.log(f"dashboard: {text!r} -> {reply!r}")
-        if ctrl.reply_delay:
-            time.sleep(ctrl.reply_delay)
-        return reply, text.lower() == "quit"
+        ctrl.log(f"dashboard: {text[:80]!r} -> {reply[:80]!r}")
+        with ctrl.lock:
+            delay = ctrl.reply_delay
+        if delay:
+            time.sleep(delay)
+        low = text.lower()
+        if low == "shutdown" and shutdown is not None:
+            threading.Timer(0.05, shutdown).start()  # after the reply is on its way
+        return reply, low in ("quit", "shutdown")
 
-    serve_lines(ctrl, listener, "dashboard", answer, banner=BANNER)
+    serve_lines(ctrl, listener, "dashboard", answer, banner=BANNER,
+                too_long=lambda head: f"could not understand: '{head}...'")

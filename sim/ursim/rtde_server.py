@@ -7,6 +7,12 @@ live connection owns an input, inputs applied atomically per data package, and d
 streamed from the controller tick at the requested rate. Streaming writes never block the tick:
 they go out with MSG_DONTWAIT, and a client whose backlog passes `MAX_BACKLOG` bytes is dropped,
 as the controller closes clients that stop reading.
+
+A connection's output recipe is one immutable `OutputRecipe`, published to the tick thread by a
+single assignment under `Controller.lock` (a new recipe never mixes with the old one in a
+package). Recipe ids are one byte: the 256th output or input recipe on a connection is refused
+(id 0, the failure answer), never a crash. A package type the protocol does not have ends the
+connection.
 """
 from __future__ import annotations
 
@@ -15,13 +21,30 @@ import socket
 import struct
 import threading
 import time
+from dataclasses import dataclass
 
 import numpy as np
+
+from sim.ursim.clients import accept_loop
 
 from sim.ursim.rtde_vars import INPUTS, OUTPUTS, TYPE_WIDTH, FrameReader, frame, record_format
 
 MAX_BACKLOG = 1 << 20
+#: Recipe ids are uint8 and 0 means "refused": at most 255 of each kind per connection.
+MAX_RECIPES = 255
 _ids = itertools.count(1)
+
+
+@dataclass(frozen=True)
+class OutputRecipe:
+    """What one output recipe streams: names, flattened widths, the packing struct, its id, and
+    the decimation (`every` controller periods)."""
+
+    id: int
+    names: tuple
+    widths: tuple
+    packer: struct.Struct
+    every: int
 
 
 def _flatten(values, widths) -> list:
@@ -44,11 +67,8 @@ class RTDEConnection:
         self.sock = sock
         self.ctrl = ctrl
         self.protocol = 1
-        self.out_names: list[str] = []
-        self.out_struct: struct.Struct | None = None
-        self.out_widths: list[int] = []
-        self.out_recipe_id = 0
-        self.every = 1
+        self.recipe: OutputRecipe | None = None  # published under ctrl.lock
+        self.recipes_made = 0
         self.next_tick = 0
         self.started = False
         self.inputs: dict[int, tuple[list[str], struct.Struct, list[int]]] = {}
@@ -82,17 +102,18 @@ class RTDEConnection:
 
     def maybe_send(self, k: int, ctrl) -> None:
         """Called every tick: send a data package if this client is due one."""
-        if not self.started or self.closed:
+        with ctrl.lock:
+            rec = self.recipe
+            due = self.started and not self.closed and rec is not None and k >= self.next_tick
+            if due:
+                self.next_tick = k + rec.every * ctrl.stream_decimate
+                values = [ctrl.output_value(n) for n in rec.names]
+        if not due:
             if self.backlog:
                 with self.send_lock:
                     self._flush()
             return
-        if k < self.next_tick:
-            return
-        self.next_tick = k + self.every * ctrl.stream_decimate
-        with ctrl.lock:
-            values = [ctrl.output_value(n) for n in self.out_names]
-        payload = struct.pack(">B", self.out_recipe_id) + self.out_struct.pack(*_flatten(values, self.out_widths))
+        payload = struct.pack(">B", rec.id) + rec.packer.pack(*_flatten(values, rec.widths))
         self._send(frame(b"U", payload))
         self.sent += 1
 
@@ -111,6 +132,7 @@ class RTDEConnection:
 
     # ---- receiving -----------------------------------------------------------------------------
     def serve(self) -> None:
+        """Read this client's packages until it closes (runs in the connection's thread)."""
         reader = FrameReader()
         try:
             while not self.closed:
@@ -150,24 +172,28 @@ class RTDEConnection:
         elif k == "I":
             self._setup_inputs(payload)
         elif k == "S":
-            ok = self.out_struct is not None
-            if ok:
-                self.started = True
-                self.next_tick = ctrl.tick_index + 1
+            with ctrl.lock:
+                ok = self.recipe is not None
+                if ok:
+                    self.started = True
+                    self.next_tick = ctrl.tick_index + 1
             self._reply(b"S", b"\x01" if ok else b"\x00")
         elif k == "P":
-            self.started = False
+            with ctrl.lock:
+                self.started = False
             self._reply(b"P", b"\x01")
         elif k == "U":
             self._data(payload)
         elif k == "M":
             pass
         else:
-            ctrl.log(f"rtde client {self.id}: unknown package type {kind}")
+            raise ValueError(f"unknown package type {kind}")
 
     def _setup_outputs(self, payload: bytes) -> None:
         ctrl = self.ctrl
         if self.protocol >= 2:
+            if len(payload) < 8:
+                raise ValueError("output setup without a frequency")
             (freq,) = struct.unpack(">d", payload[:8])
             text = payload[8:].decode("ascii", "replace")
         else:
@@ -175,15 +201,18 @@ class RTDEConnection:
         names = [n.strip() for n in text.split(",") if n.strip()]
         types = [OUTPUTS.get(n, "NOT_FOUND") for n in names]
         base = 1.0 / ctrl.period
-        if "NOT_FOUND" in types or not names or not (0 < freq <= base + 1e-9):
+        full = self.recipes_made >= MAX_RECIPES
+        if full:
+            ctrl.log(f"rtde client {self.id}: {MAX_RECIPES} output recipes already: refused")
+        if "NOT_FOUND" in types or not names or not (0 < freq <= base + 1e-9) or full:
             self._reply(b"O", b"\x00" + ",".join(types).encode())
             return
-        self.out_names = names
-        self.out_widths = [TYPE_WIDTH.get(t, 1) for t in types]
-        self.out_struct = record_format(types)
-        self.every = max(1, int(round(base / freq)))
-        self.out_recipe_id += 1
-        self._reply(b"O", struct.pack(">B", self.out_recipe_id) + ",".join(types).encode())
+        self.recipes_made += 1
+        rec = OutputRecipe(id=self.recipes_made, names=tuple(names), widths=tuple(TYPE_WIDTH.get(t, 1) for t in types),
+                           packer=record_format(types), every=max(1, int(round(base / freq))))
+        with ctrl.lock:
+            self.recipe = rec  # one assignment: the tick streams the old recipe or the new one, whole
+        self._reply(b"O", struct.pack(">B", rec.id) + ",".join(types).encode())
 
     def _setup_inputs(self, payload: bytes) -> None:
         ctrl = self.ctrl
@@ -197,7 +226,7 @@ class RTDEConnection:
                     types.append("IN_USE")
                 else:
                     types.append(INPUTS[n])
-            if "NOT_FOUND" in types or "IN_USE" in types or not names:
+            if "NOT_FOUND" in types or "IN_USE" in types or not names or self.next_input_id > MAX_RECIPES:
                 rid = 0
             else:
                 rid = self.next_input_id
@@ -208,6 +237,8 @@ class RTDEConnection:
         self._reply(b"I", struct.pack(">B", rid) + ",".join(types).encode())
 
     def _data(self, payload: bytes) -> None:
+        if not payload:
+            raise ValueError("data package without a recipe id")
         rid = payload[0]
         recipe = self.inputs.get(rid)
         if recipe is None:
@@ -227,14 +258,12 @@ class RTDEConnection:
 
 
 def serve_rtde(ctrl, listener: socket.socket) -> None:
-    """Accept RTDE clients forever (one reader thread each)."""
-    while not ctrl.stopped:
-        try:
-            sock, _ = listener.accept()
-        except OSError:
-            return
+    """Accept RTDE clients (one reader thread each, within the client cap)."""
+    def client(sock: socket.socket) -> None:
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         conn = RTDEConnection(sock, ctrl)
         with ctrl.lock:
             ctrl.rtde_conns.append(conn)
-        threading.Thread(target=conn.serve, name=f"rtde-{conn.id}", daemon=True).start()
+        conn.serve()
+
+    accept_loop(ctrl, listener, "rtde", client)

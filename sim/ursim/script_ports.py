@@ -1,50 +1,49 @@
-"""Script ports (30001 primary, 30002 secondary, 30003 real-time) of the controller stand-in.
+"""Script ports (30001 primary, 30002 secondary, 30003 real-time) of the controller stand-in: the
+URScript they accept.
 
 Clients write URScript text. A program starts with `def`/`sec` in column 0 and ends with `end` in
 column 0 (URScript manual, "Connecting to URControl"); the text is buffered until then. ur_rtde's
 control script becomes a `ControlScript`; anything else is compiled by `urscript` and run, or,
 when it does not compile, refused with the error in the controller log and the running program
 stopped, as a controller does. A bare statement line outside a program runs as a one-line program.
-The stand-in sends nothing on these ports (ur_rtde never reads them).
+A line over `MAX_SCRIPT_LINE` bytes or a program over `MAX_SCRIPT` bytes is refused the same way
+and the connection is closed. What the ports send (robot state, the real-time package) is
+`client_interfaces`.
 """
 from __future__ import annotations
 
 import re
 import socket
-import threading
 import time
 
+from sim.ursim.clients import accept_loop
 from sim.ursim.control_script import ControlScript, is_control_script
 from sim.ursim.urscript import ScriptError, URScriptProgram, parse_program
 
-_END = re.compile(r"^end\s*$", re.M)
-_START = re.compile(r"^(def|sec)\s", re.M)
-
-
-class _Rejected:
-    """Placeholder program for a refused script."""
-
-    running = False
-
-    def __init__(self, name):
-        self.name = name
-
-    def kill(self, reason):
-        pass
+#: Longest program accepted on a script port (bytes): ur_rtde's control script is 40-50 KB.
+MAX_SCRIPT = 4 << 20
+#: Longest line of a script (bytes).
+MAX_SCRIPT_LINE = 64 << 10
+_START = re.compile(r"^(def|sec)\s")
+_END = re.compile(r"^end\s*$")
 
 
 def program_from_text(ctrl, text: str, name: str = "<script>"):
-    """A runnable program for `text`, or a `_Rejected` after logging the compile error."""
+    """A runnable program for `text`, or None after logging the compile error."""
     try:
         if is_control_script(text):
             return ControlScript(ctrl, text)
         prog_name, statements = parse_program(text)
         return URScriptProgram(ctrl, prog_name if prog_name != "<statement>" else name, statements)
     except ScriptError as exc:
-        ctrl.log(f"compile error in {name}: {exc}")
-        with ctrl.lock:
-            ctrl.last_error = f"compile error: {exc}"
-        return _Rejected(name)
+        refuse(ctrl, f"compile error in {name}: {exc}")
+        return None
+
+
+def refuse(ctrl, text: str) -> None:
+    ctrl.log(text)
+    with ctrl.lock:
+        ctrl.last_error = text
 
 
 #: A controller stops the running program when a new one arrives, then needs a moment to compile
@@ -54,10 +53,13 @@ COMPILE_DELAY_S = 0.04
 
 def run_text(ctrl, text: str, port: int) -> None:
     program = program_from_text(ctrl, text, f"port {port}")
-    if isinstance(program, _Rejected):
+    if program is None:
         ctrl.stop_program("a program that does not compile was sent")
         return
     ctrl.log(f"port {port}: program {program.name} received ({len(text)} bytes)")
+    if getattr(program, "secondary", False):
+        program.run_beside()
+        return
     with ctrl.lock:
         if ctrl.program is not None and ctrl.program.running:
             ctrl.stop_program("replaced by a new program")
@@ -65,54 +67,94 @@ def run_text(ctrl, text: str, port: int) -> None:
     ctrl.start_program(program)
 
 
-def split_programs(buf: str) -> tuple[list[str], str]:
-    """Complete programs (or bare statement lines) at the front of `buf`, and the rest."""
-    out = []
-    while buf:
-        stripped = buf.lstrip("\r\n")
-        if not stripped:
-            return out, ""
-        buf = stripped
-        if _START.match(buf):
-            m = _END.search(buf)
-            if not m:
-                return out, buf
-            end = m.end()
-            nl = buf.find("\n", end)
-            end = len(buf) if nl < 0 else nl + 1
-            out.append(buf[:end])
-            buf = buf[end:]
-        else:
-            nl = buf.find("\n")
+class ScriptFramer:
+    """Cuts a script stream into programs (or bare statement lines), each byte scanned once.
+
+    `feed(data)` returns the complete texts; `error` is set (and nothing more is read) once a line
+    or a program passes its limit."""
+
+    def __init__(self, max_script: int = MAX_SCRIPT, max_line: int = MAX_SCRIPT_LINE):
+        self.max_script, self.max_line = max_script, max_line
+        self._line = bytearray()
+        self._program: list[str] = []
+        self._size = 0
+        self.error: str | None = None
+
+    @property
+    def pending(self) -> int:
+        """Bytes of an unfinished program or line."""
+        return self._size + len(self._line)
+
+    def feed(self, data: bytes) -> list[str]:
+        out, start = [], 0
+        while self.error is None:
+            nl = data.find(b"\n", start)
             if nl < 0:
-                return out, buf
-            out.append(buf[:nl + 1])
-            buf = buf[nl + 1:]
-    return out, ""
+                self._line += data[start:start + self.max_line + 1 - len(self._line)]
+                if len(self._line) > self.max_line:
+                    self.error = f"script line over {self.max_line} bytes"
+                break
+            if len(self._line) + nl - start > self.max_line:
+                self.error = f"script line over {self.max_line} bytes"
+                break
+            self._line += data[start:nl + 1]
+            start = nl + 1
+            line = self._line.decode("utf-8", "replace")
+            self._line.clear()
+            self._take(line, out)
+        return out
+
+    def _take(self, line: str, out: list[str]) -> None:
+        if not self._program:
+            if not line.strip():
+                return
+            if not _START.match(line):
+                out.append(line)  # a bare statement runs as a one-line program
+                return
+        self._program.append(line)
+        self._size += len(line)
+        if self._size > self.max_script:
+            self.error = f"program over {self.max_script} bytes"
+        elif _END.match(line):
+            out.append("".join(self._program))
+            self._program, self._size = [], 0
 
 
-def serve_script_port(ctrl, listener: socket.socket, port: int) -> None:
-    def client(sock: socket.socket) -> None:
-        buf = ""
-        with sock:
-            while not ctrl.stopped:
-                try:
-                    data = sock.recv(65536)
-                except OSError:
-                    return
-                if not data:
-                    break
-                buf += data.decode("utf-8", "replace")
-                programs, buf = split_programs(buf)
-                for text in programs:
-                    if text.strip():
-                        run_text(ctrl, text, port)
-        if buf.strip():
-            ctrl.log(f"port {port}: incomplete program discarded at disconnect ({len(buf)} bytes)")
-
+def serve_script_text(ctrl, sock: socket.socket, port: int) -> None:
+    """Read URScript from one client until it closes (the caller closes the socket)."""
+    framer = ScriptFramer()
     while not ctrl.stopped:
         try:
-            sock, _ = listener.accept()
+            data = sock.recv(65536)
         except OSError:
             return
-        threading.Thread(target=client, args=(sock,), name=f"script-{port}", daemon=True).start()
+        if not data:
+            break
+        for text in framer.feed(data):
+            run_text(ctrl, text, port)
+        if framer.error:
+            refuse(ctrl, f"port {port}: {framer.error}: program refused, connection closed")
+            ctrl.stop_program("a program that does not compile was sent")
+            return
+    if framer.pending:
+        ctrl.log(f"port {port}: incomplete program discarded at disconnect ({framer.pending} bytes)")
+
+
+def serve_script_port(ctrl, listener: socket.socket, key: str, port: int) -> None:
+    """Accept clients of one script port: stream what the port sends (client_interfaces) while
+    reading the URScript the client writes."""
+    from sim.ursim import client_interfaces as ci
+
+    def client(sock: socket.socket) -> None:
+        stream = ci.Stream(sock, key)
+        if key != "realtime":
+            sock.sendall(ci.version_message(ctrl) + ci.robot_state_message(ctrl))
+        with ctrl.lock:
+            ctrl.interface_streams.append(stream)
+        try:
+            serve_script_text(ctrl, sock, port)
+        finally:
+            with ctrl.lock:
+                ctrl.interface_streams.remove(stream)
+
+    accept_loop(ctrl, listener, key, client)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import socket
+import sys
 import threading
 from pathlib import Path
 
@@ -25,11 +26,16 @@ def _listen(host: str, port: int) -> socket.socket:
 
 
 class StandIn:
-    """A running stand-in: `Controller` plus its listeners. `close()` stops everything."""
+    """A running stand-in: `Controller` plus its listeners. `close()` stops everything: listeners,
+    every client connection, the running program and the tick. `done` is set by admin or dashboard
+    `shutdown` (the CLI then closes and exits)."""
 
     def __init__(self, config: ControllerConfig, programs_dir: Path | None = None):
         self.ctrl = Controller(config)
         self.done = threading.Event()
+        # A busy client thread keeps the GIL for up to the switch interval (5 ms by default): far
+        # more than the 2 ms period. A tenth of the period lets the tick thread in on time.
+        sys.setswitchinterval(min(sys.getswitchinterval(), self.ctrl.period / 10))
         ports = config.ports
         self._sockets = []
         try:
@@ -43,11 +49,11 @@ class StandIn:
             if key == "rtde":
                 target, args = serve_rtde, (self.ctrl, sock)
             elif key == "dashboard":
-                target, args = serve_dashboard, (self.ctrl, sock, programs_dir)
+                target, args = serve_dashboard, (self.ctrl, sock, programs_dir, self.done.set)
             elif key == "admin":
                 target, args = serve_admin, (self.ctrl, sock, self.done.set)
             else:
-                target, args = serve_script_port, (self.ctrl, sock, ports[key])
+                target, args = serve_script_port, (self.ctrl, sock, key, ports[key])
             threading.Thread(target=target, args=args, name=f"listen-{key}", daemon=True).start()
 
     def close(self) -> None:
@@ -57,6 +63,9 @@ class StandIn:
                     op()
                 except OSError:
                     pass
-        for conn in list(self.ctrl.rtde_conns):
+        self.ctrl.clients.close_all()  # every client of every port
+        with self.ctrl.lock:
+            conns = list(self.ctrl.rtde_conns)
+        for conn in conns:
             conn.close()
         self.ctrl.shutdown()

@@ -4,7 +4,10 @@ Statements (one per line): `def NAME():` / `end`, comments, `set_tcp(p[...])`,
 `movej(q|p[...], a=, v=, r=)`, `movel(p[...]|q, a=, v=, r=)`, `movep(...)`,
 `set_tool_digital_out(n, b)`, `set_standard_digital_out(n, b)`, `set_configurable_digital_out(n, b)`,
 `write_output_integer_register(n, v)`, `sleep(t)`, `textmsg(...)`, `sync()`,
-`signal_async_progress(i)` (ur_rtde paths). Anything else is rejected with the line number, and the
+`signal_async_progress(i)` (ur_rtde paths), `set_payload(m[, cog])` (also python-urx's tuple
+form `set_payload(m, (x, y, z))`), `set_target_payload(m, cog[, inertia][, transition_time])`.
+A `sec NAME(): ... end` program (no moves) runs beside the running program without stopping it.
+Anything else is rejected with the line number, and the
 program does not run (as a controller refuses a program that does not compile).
 
 Consecutive moves run as one blended motion; register writes, digital outputs and textmsg between
@@ -25,7 +28,7 @@ from sim.ursim.motion import PlanError, Waypoint, plan_moves
 MOVES = ("movej", "movel", "movep")
 #: Statements that take no time: run during a blended motion without stopping it.
 INSTANT = ("write_output_integer_register", "set_tool_digital_out", "set_standard_digital_out",
-           "set_configurable_digital_out", "textmsg")
+           "set_configurable_digital_out", "textmsg", "set_payload", "set_target_payload")
 _CALL = re.compile(r"^([A-Za-z_]\w*)\s*\((.*)\)\s*$")
 _DEFAULTS = {"movej": (1.4, 1.05), "movel": (1.2, 0.25), "movep": (1.2, 0.25)}  # (a, v)
 
@@ -79,6 +82,8 @@ def parse_statements(lines: list[tuple[int, str]]) -> list[Statement]:
                 raise ScriptError(f"line {no}: {st.name} with t= is not supported by the stand-in")
         elif st.name == "textmsg":
             pass
+        elif st.name in ("set_payload", "set_target_payload"):
+            _check_payload(st)
         elif st.name in _ARITY:
             if len(st.args) != _ARITY[st.name]:
                 raise ScriptError(f"line {no}: {st.name} takes {_ARITY[st.name]} arguments")
@@ -86,6 +91,21 @@ def parse_statements(lines: list[tuple[int, str]]) -> list[Statement]:
             raise ScriptError(f"line {no}: unknown or unsupported function {st.name}()")
         out.append(st)
     return out
+
+
+def _check_payload(st: Statement) -> None:
+    n = len(st.args)
+    allowed = {"set_payload": (1, 2), "set_target_payload": (2, 4)}[st.name]
+    extra = set(st.kwargs) - ({"inertia", "transition_time"} if st.name == "set_target_payload" else set())
+    if not allowed[0] <= n <= allowed[1] or extra:
+        raise ScriptError(f"line {st.line}: {st.name} takes {allowed[0]}-{allowed[1]} arguments")
+    try:
+        mass = float(st.args[0])
+        cog = None if n < 2 else [float(x) for x in st.args[1]]
+    except (TypeError, ValueError):
+        raise ScriptError(f"line {st.line}: {st.name}: mass and CoG must be numbers") from None
+    if not np.isfinite(mass) or not 0 <= mass <= 1000 or (cog is not None and (len(cog) != 3 or not np.all(np.isfinite(cog)))):
+        raise ScriptError(f"line {st.line}: {st.name}: needs a mass in 0-1000 kg and a CoG [x, y, z]")
 
 
 def parse_program(text: str) -> tuple[str, list[Statement]]:
@@ -105,7 +125,10 @@ def parse_program(text: str) -> tuple[str, list[Statement]]:
     for no, ln in body:
         if ln.strip() == "end" or re.match(r"^\s*(def|sec|thread|while|if|for)\b", ln):
             raise ScriptError(f"line {no}: nested blocks are not supported by the stand-in: {ln.strip()[:60]}")
-    return m.group(2), parse_statements(body)
+    statements = parse_statements(body)
+    if m.group(1) == "sec" and any(st.name in MOVES or st.name == "sleep" for st in statements):
+        raise ScriptError(f"line {first_no}: a secondary program (sec) cannot move the arm or sleep")
+    return ("sec " if m.group(1) == "sec" else "") + m.group(2), statements
 
 
 def waypoint_of(st: Statement, progress: int = -1) -> Waypoint:
@@ -149,6 +172,18 @@ def resolve_fk_targets(ctrl, waypoints: list[Waypoint]) -> list[Waypoint]:
     return out
 
 
+def _wp_values(w: Waypoint) -> dict:
+    """A waypoint's numbers for `Controller.record`."""
+    out = {"q": w.q} if w.q is not None else {"pose": w.pose}
+    out.update(v=w.v, a=w.a, r=w.r)
+    return out
+
+
+def record_waypoints(ctrl, source: str, waypoints: list[Waypoint]) -> None:
+    for w in waypoints:
+        ctrl.record(source, w.kind, **_wp_values(w))
+
+
 class Killed(Exception):
     """The program was stopped while a statement was running."""
 
@@ -163,6 +198,17 @@ class URScriptProgram:
         self.running = False
         self._killed = threading.Event()
         self._thread = threading.Thread(target=self._main, name=f"urscript-{name}", daemon=True)
+
+    @property
+    def secondary(self) -> bool:
+        """A `sec` program: runs beside the main program (`run_beside`), never replaces it."""
+        return self.name.startswith("sec ")
+
+    def run_beside(self) -> None:
+        """Run a secondary program's statements at once (they take no time)."""
+        for st in self.statements:
+            self._do(st)
+        self.ctrl.log(f"secondary program {self.name[4:]} done")
 
     def start(self) -> None:
         self.running = True
@@ -210,6 +256,7 @@ class URScriptProgram:
             else:
                 pending.append(sts[j])
             j += 1
+        record_waypoints(self.ctrl, "urscript", moves)
         self._move(moves, actions)
         return end  # instant statements after the last move run normally
 
@@ -249,6 +296,7 @@ class URScriptProgram:
             ctrl.log("textmsg: " + " ".join(str(a) for a in args))
         elif name == "set_tcp":
             ctrl.set_tcp(args[0])
+            ctrl.record("urscript", "set_tcp", pose=args[0])
         elif name in ("set_standard_digital_out", "set_configurable_digital_out", "set_tool_digital_out"):
             n, val = int(args[0]), bool(args[1])
             limit, shift = {"set_standard_digital_out": (8, 0), "set_configurable_digital_out": (8, 8),
@@ -258,12 +306,17 @@ class URScriptProgram:
             with ctrl.lock:
                 bit = 1 << (n + shift)
                 ctrl.digital_out = (ctrl.digital_out | bit) if val else (ctrl.digital_out & ~bit)
+            ctrl.record("urscript", name, output=n, value=val)
         elif name == "write_output_integer_register":
             n = int(args[0])
             if not 0 <= n < 48:
                 raise PlanError(f"line {st.line}: write_output_integer_register: register {n} does not exist")
             with ctrl.lock:
                 ctrl.out_int[n] = int(args[1])
+        elif name in ("set_payload", "set_target_payload"):
+            inertia = st.kwargs.get("inertia", args[2] if len(args) > 2 else None)
+            ctrl.set_payload(float(args[0]), None if len(args) < 2 else [float(x) for x in args[1]],
+                             inertia if name == "set_target_payload" else None, source="urscript")
         elif name == "sleep":
             if self._killed.wait(max(0.0, float(args[0]))):
                 raise Killed()
