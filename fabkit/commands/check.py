@@ -45,6 +45,15 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.toolpath, "PATH.json")
+    plan.input(args.cell, "--cell")
+    plan.input(args.fold, "--fold")
+    plan.output(args.output, "-o")
+    plan.output(args.render, "--render")
+    plan.output(args.report, "--report")
+
+
 def _size(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.lower().split("x"))

@@ -45,6 +45,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-q", "--quiet", action="store_true", help="no summary table")
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.cell, "--cell")
+    plan.workdir(args.out, "--out")
+    plan.output(Path(args.out) / "summary.json", "--out")
+    plan.output(Path(args.out) / "report.html", "--out")
+    plan.output(args.report, "--report")
+
+
 @dataclass
 class Stage:
     name: str

@@ -51,6 +51,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_common(p)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.surface, "SURFACE")
+    plan.folder(args.out, "-o")
+    plan.output(args.report, "--report")
+
+
 def load_surface(path: str, levels: int):
     """A GridSurface from an OBJ quad grid (subdivided when it is a 3-vertex-across low-poly)."""
     import numpy as np
@@ -94,7 +100,9 @@ def run(args) -> int:
     n_tasks = len(layout.panels) // (2 if args.symmetric else 1)
     with progress(args, "panels", total=n_tasks * (1 + args.max_rounds)) as advance:
         result = run_panels(layout, options, jobs=args.jobs, scheduler=args.scheduler, progress=advance)
-    report = write_run(result, args.out, plots=not args.no_plots, cut_files=not args.no_cut_files)
+    from fabkit.io.atomic import staging_path
+
+    report = write_run(result, staging_path(args.out), plots=not args.no_plots, cut_files=not args.no_cut_files)
     report["input"] = {"surface": args.surface, "lowpoly": lowpoly, "levels": args.levels if lowpoly else 0}
     write_report(args, report)
     last = result.rounds[-1]

@@ -64,6 +64,18 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.flat, "FLAT")
+    plan.input(args.target, "TARGET")
+    for option in ("drive", "steps"):
+        value = getattr(args, option)
+        if value and Path(value).exists():
+            plan.input(value, f"--{option}")
+    for option in ("output", "glb", "png", "report"):
+        plan.output(getattr(args, option), "-o" if option == "output" else f"--{option}")
+    plan.folder(args.obj_dir, "--obj-dir")
+
+
 def _check_args(args) -> list[Path]:
     from fabkit.errors import InputError
 

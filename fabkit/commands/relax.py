@@ -86,6 +86,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_common(p)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.input, "IN")
+    plan.input(args.edge_lengths, "--edge-lengths")
+    plan.output(args.output, "-o")
+    plan.output(args.report, "--report")
+
+
 def _kept_edges(mesh, path, keep_boundary: bool) -> dict:
     """{edge id: length} from --keep-boundary-lengths and --edge-lengths FILE (the file wins on overlap)."""
     import numpy as np

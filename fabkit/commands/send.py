@@ -43,6 +43,13 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.toolpath, "PATH.json")
+    plan.input(args.check, "--check")
+    plan.stream(args.log, "--log")
+    plan.output(args.report, "--report")
+
+
 def _load_check(path: str, sha: str) -> dict:
     from fabkit.io.jsonfile import load_json
 
