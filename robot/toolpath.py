@@ -154,8 +154,12 @@ class Toolpath:
 
     @classmethod
     def load(cls, path: str | Path) -> "Toolpath":
+        from fabkit.io.validate import check_coordinates
+
         d = load_json(path, "JSON toolpath", missing="toolpath file not found")
-        return cls.from_json(d, source=str(path))
+        tp = cls.from_json(d, source=str(path))
+        check_coordinates([w["pose"][:3] for w in tp.waypoints], str(path), "waypoint")
+        return tp
 
 
 def _is_num(x) -> bool:

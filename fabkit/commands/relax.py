@@ -98,6 +98,7 @@ def _kept_edges(mesh, path, keep_boundary: bool) -> dict:
     import numpy as np
 
     from fabkit.io.jsonfile import load_json
+    from fabkit.io.validate import check_coordinates
 
     kept: dict[int, float] = {}
     if keep_boundary:
@@ -116,6 +117,7 @@ def _kept_edges(mesh, path, keep_boundary: bool) -> dict:
     if pairs.ndim != 2 or pairs.shape[1] != 2 or lengths.ndim != 1 or len(lengths) != len(pairs):
         raise InputError(f'"edges" must be a list of [u, v] pairs with one length each (got {len(lengths)} '
                          f"lengths for {len(pairs) if pairs.ndim == 2 else '?'} edges)", source=path)
+    check_coordinates(lengths, path, "edge length")
     if not np.all(np.isfinite(pairs) & (pairs == np.round(pairs))):
         raise InputError('"edges" must hold integer vertex ids', source=path)
     ids = mesh.topology.edge_ids(pairs.astype(np.int64))
