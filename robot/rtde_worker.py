@@ -138,6 +138,9 @@ def _worker_main(conn, host: str) -> None:
     """
     import signal
 
+    from fabkit.lifeline import die_with_parent
+
+    die_with_parent(getattr(mp.parent_process(), "pid", None))  # never outlive the sender, even on kill -9
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     ch = _Channels(host)
     while True:

@@ -82,6 +82,8 @@ def run(args) -> int:
                              "libosmesa6; or set MUJOCO_GL=egl before anything imports mujoco)", source="--render")
     if args.view and not os.environ.get("DISPLAY"):
         raise InputError("no display for the viewer (DISPLAY is not set)", source="--view")
+    if not 2 <= args.frames <= 10000:
+        raise InputError(f"must be in 2..10000, got {args.frames}", source="--frames")
     if args.thickness is not None and not 0 < args.thickness < 0.05:
         raise InputError(f"must be in (0, 0.05) m, got {args.thickness}", source="--thickness")
     out = Path(args.output)

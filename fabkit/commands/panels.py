@@ -51,6 +51,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_common(p)
 
 
+#: most faces of the subdivided surface (memory of the panel layout grows with it)
+MAX_SURFACE_FACES = 2_000_000
+
+
 def plan_files(args, plan) -> None:
     plan.input(args.surface, "SURFACE")
     plan.folder(args.out, "-o")
@@ -75,6 +79,9 @@ def load_surface(path: str, levels: int):
         grid[index.ravel()] = np.stack(np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij"), axis=-1).reshape(-1, 2)
         if levels < 1:
             raise InputError("a 3-vertex-across low-poly needs --levels >= 1", source=path)
+        if mesh.n_faces * 4 ** levels > MAX_SURFACE_FACES:
+            raise InputError(f"--levels {levels} would make {mesh.n_faces * 4 ** levels:,} faces, more than the "
+                             f"{MAX_SURFACE_FACES:,} this command handles; lower --levels", source=path)
         return subdivide_grid(mesh.with_data(vertex_data={"grid": grid}), levels), True
     return GridSurface(points=mesh.vertices[index], mesh=mesh, index=index), False
 
@@ -92,6 +99,12 @@ def run(args) -> int:
         raise InputError("tolerances must be positive")
     if args.max_rounds < 0:
         raise InputError(f"--max-rounds must be >= 0, got {args.max_rounds}")
+    if not 0 <= args.levels <= 10:
+        raise InputError(f"--levels must be in 0..10, got {args.levels}")
+    if args.scheduler:
+        from fabkit.panels.executor import check_scheduler
+
+        check_scheduler(args.scheduler)
     surface, lowpoly = load_surface(args.surface, args.levels)
     layout = layout_panels(surface, rows=args.rows, cols=args.cols, columns_per_panel=args.columns_per_panel)
     options = PanelsOptions(tol_congruency=args.tolerance, tol_unfold=args.unfold_tolerance,

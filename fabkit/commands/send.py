@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 import json
+import math
 import os
+import re
 import sys
 
 from fabkit.commands._common import add_common, progress, say, write_report
@@ -43,6 +45,24 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+#: longest --stall: a frozen controller must be noticed within seconds, never switched off
+MAX_STALL_S = 5.0
+
+_HOST_LABEL = re.compile(r"^(?!-)[A-Za-z0-9-]{1,63}(?<!-)$")
+
+
+def _is_host(text: str) -> bool:
+    """An IPv4/IPv6 address or an RFC 1123 host name."""
+    import ipaddress
+
+    try:
+        ipaddress.ip_address(text)
+        return True
+    except ValueError:
+        pass
+    return len(text) <= 253 and all(_HOST_LABEL.match(label) for label in text.rstrip(".").split("."))
+
+
 def plan_files(args, plan) -> None:
     plan.input(args.toolpath, "PATH.json")
     plan.input(args.check, "--check")
@@ -72,8 +92,10 @@ def run(args) -> int:
         raise InputError("no controller address: give --host or set FABKIT_UR_HOST", source="--host")
     if args.chunk < 2:
         raise InputError("a chunk needs at least 2 waypoints", source="--chunk")
-    if not args.stall > 0:
-        raise InputError("must be positive", source="--stall")
+    if not (math.isfinite(args.stall) and 0 < args.stall <= MAX_STALL_S):
+        raise InputError(f"must be a number of seconds in (0, {MAX_STALL_S:g}], got {args.stall}", source="--stall")
+    if not _is_host(args.host):
+        raise InputError(f"{args.host!r} is not an IP address or host name", source="--host")
     tp = Toolpath.load(args.toolpath)
     check = _load_check(args.check, tp.sha256)
     if not check["ok"]:
