@@ -57,26 +57,28 @@ def readonly(tmp_path_factory):
     subprocess.run(["umount", str(d)], capture_output=True, timeout=20)
 
 
-def run(argv: list[str]) -> tuple[int, str]:
+def run(argv: list[str], fsize: int | None = None) -> tuple[int, str]:
+    """`fabkit.cli.main(argv)` in-process; `fsize`: with the file-size limit lowered to that many bytes
+    (a full disk: writes fail with EFBIG, Python ignores SIGXFSZ)."""
+    import resource
+
     err, out = io.StringIO(), io.StringIO()
+    saved = resource.getrlimit(resource.RLIMIT_FSIZE)
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
         try:
+            if fsize is not None:
+                resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, saved[1]))
             code = main(argv)
         except SystemExit as exc:
             code = int(exc.code or 0)
+        finally:
+            resource.setrlimit(resource.RLIMIT_FSIZE, saved)
     return code, err.getvalue()
 
 
-def run_subprocess(argv: list[str], fsize: int | None = None, timeout: float = 120) -> tuple[int, str]:
-    def limit():
-        if fsize is not None:
-            import resource
-
-            resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
-
-    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+def run_subprocess(argv: list[str], timeout: float = 120) -> tuple[int, str]:
     r = subprocess.run([sys.executable, "-m", "fabkit", *argv], capture_output=True, text=True, timeout=timeout,
-                       preexec_fn=limit, env=env, cwd=ROOT)
+                       cwd=ROOT)
     return r.returncode, r.stderr
 
 
@@ -172,7 +174,7 @@ def test_full_disk_is_exit_2_and_leaves_nothing(command, files, tmp_path):
     out = tmp_path / OUT_NAME.get(command, "out.json")
     argv = build(lambda name: str(files / name), str(out))
     before = snapshot(files, tmp_path)
-    code, err = run_subprocess(argv, fsize=200)
+    code, err = run(argv, fsize=200)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert code == 2, err
     assert len(lines) == 1 and "cannot write" in lines[0], err

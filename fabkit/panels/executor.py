@@ -84,9 +84,14 @@ def panel_executor(jobs: int = 1, scheduler: str | None = None) -> Iterator[Exec
     saved = {k: os.environ.get(k) for k in _SINGLE_THREAD}
     os.environ.update(_SINGLE_THREAD)  # inherited by the spawned workers before they import numpy
     try:
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
-                                 initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
+        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
+                                   initializer=die_with_parent, initargs=(os.getpid(),))
+        try:
             yield pool
+        except BaseException:  # an error, Ctrl-C or SIGTERM: drop the queued panels, do not wait for them
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown(wait=True)
     finally:
         for k, v in saved.items():
             if v is None:
