@@ -19,8 +19,8 @@ from pathlib import Path
 
 import pytest
 
-from fabkit.cli import main
-from fabkit.io.atomic import is_temp_name
+from cli_inputs import make_inputs, run, snapshot, temp_files
+
 
 ROOT = Path(__file__).resolve().parents[1]
 CELL_SRC = ROOT / "cells" / "ur5e_bench.toml"
@@ -31,13 +31,7 @@ PANELS_SMALL = ["--rows", "2", "--cols", "2", "--jobs", "1", "--no-plots", "--le
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
-    """Inputs every command reads: the small demo's files, a canopy low-poly and a copy of the cell."""
-    d = tmp_path_factory.mktemp("inputs")
-    code, err = run(["demo", "--out", str(d), "--small", "--no-render", "--no-dry-run", "-q"])
-    assert code == 0, err
-    assert run(["generate", "canopy", "-o", str(d / "canopy.obj"), "-q"])[0] == 0
-    shutil.copy(CELL_SRC, d / "cell.toml")
-    return d
+    return make_inputs(tmp_path_factory.mktemp("inputs"))
 
 
 @pytest.fixture(scope="module")
@@ -55,25 +49,6 @@ def readonly(tmp_path_factory):
         pytest.skip("root without a read-only mount: no way to make a folder read-only")
     yield d
     subprocess.run(["umount", str(d)], capture_output=True, timeout=20)
-
-
-def run(argv: list[str], fsize: int | None = None) -> tuple[int, str]:
-    """`fabkit.cli.main(argv)` in-process; `fsize`: with the file-size limit lowered to that many bytes
-    (a full disk: writes fail with EFBIG, Python ignores SIGXFSZ)."""
-    import resource
-
-    err, out = io.StringIO(), io.StringIO()
-    saved = resource.getrlimit(resource.RLIMIT_FSIZE)
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
-        try:
-            if fsize is not None:
-                resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, saved[1]))
-            code = main(argv)
-        except SystemExit as exc:
-            code = int(exc.code or 0)
-        finally:
-            resource.setrlimit(resource.RLIMIT_FSIZE, saved)
-    return code, err.getvalue()
 
 
 def run_subprocess(argv: list[str], timeout: float = 120) -> tuple[int, str]:
@@ -106,18 +81,6 @@ ONE_OUTPUT = {"info"}
 #: a full disk shows while writing: these write only after their work (send: after the arm moved, a
 #: stand-in and a whole demo are too slow for this table), so the file-size case covers the rest
 FULL_DISK = ["generate", "info", "relax", "unfold", "panels", "refold", "toolpath", "check"]
-
-
-def snapshot(*dirs: Path) -> dict:
-    out = {}
-    for d in dirs:
-        for p in sorted(d.rglob("*")):
-            out[str(p)] = hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir"
-    return out
-
-
-def temp_files(*dirs: Path) -> list[str]:
-    return [str(p) for d in dirs for p in d.rglob("*") if is_temp_name(p.name)]
 
 
 def assert_refused(code: int, err: str, names: str, before: dict, *dirs: Path) -> None:

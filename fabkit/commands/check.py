@@ -98,7 +98,10 @@ def run(args) -> int:
 
     cell = load_cell(args.cell)
     tp = Toolpath.load(args.toolpath)  # refuses a stored sha256 that does not match the waypoints
-    prog = program_from_toolpath(tp, cell)
+    try:
+        prog = program_from_toolpath(tp, cell)
+    except InputError as exc:
+        raise exc.with_source(args.toolpath) from None
 
     panel, fold_path = None, None
     if not args.no_panel:
