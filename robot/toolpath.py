@@ -125,7 +125,7 @@ class Toolpath:
         for key in ("robot", "cell", "tcp", "source", "waypoints", "sha256"):
             if key not in d:
                 fail(f"{key}: missing")
-        if d["robot"] not in K.MODELS:
+        if not isinstance(d["robot"], str) or d["robot"] not in K.MODELS:
             fail(f"robot: {d['robot']!r} is not one of {', '.join(K.MODELS)}")
         if not (isinstance(d["tcp"], list) and len(d["tcp"]) == 6 and all(_is_num(x) for x in d["tcp"])):
             fail("tcp: expected 6 numbers")
@@ -176,9 +176,9 @@ def _check_waypoint(w, i, fail) -> None:
     for k in ("pose", "q"):
         if not (isinstance(w[k], list) and len(w[k]) == 6 and all(_is_num(x) for x in w[k])):
             fail(f"{where}.{k}: expected 6 finite numbers")
-    if w["move"] not in MOVES:
+    if not isinstance(w["move"], str) or w["move"] not in MOVES:
         fail(f"{where}.move: {w['move']!r} is not movej or movel")
-    if w["op"] not in OPS:
+    if not isinstance(w["op"], str) or w["op"] not in OPS:
         fail(f"{where}.op: {w['op']!r} is not one of {', '.join(OPS)}")
     for k in ("v", "a"):
         if not (_is_num(w[k]) and w[k] > 0):

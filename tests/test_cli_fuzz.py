@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from cli_inputs import make_inputs, run, snapshot, temp_files
 
-SETTINGS = settings(max_examples=12, deadline=timedelta(seconds=30), derandomize=True, database=None,
+SETTINGS = settings(max_examples=10, deadline=timedelta(seconds=30), derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
                                            HealthCheck.function_scoped_fixture])
 PANELS_SMALL = ["--rows", "2", "--cols", "2", "--jobs", "1", "--no-plots", "--levels", "2",
@@ -156,7 +156,7 @@ FOLD_COMMANDS = {
 }
 
 
-@SETTINGS
+@settings(SETTINGS, max_examples=6)
 @given(data=st.data(), command=st.sampled_from(sorted(FOLD_COMMANDS)))
 def test_malformed_fold(files, data, command):
     content = data.draw(mutated_json((files / "fold.fold").read_text()))
@@ -174,7 +174,7 @@ def _still_passes(check_text: str, path_text: str) -> bool:
         return False
 
 
-@SETTINGS
+@settings(SETTINGS, max_examples=8)
 @given(data=st.data(), command=st.sampled_from(["check", "send"]))
 def test_malformed_toolpath(files, data, command):
     _inputs["path"] = (files / "path.json").read_text()
