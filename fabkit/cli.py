@@ -1,7 +1,10 @@
 """The `fabkit` command line: one command, one module per subcommand.
 
-Each subcommand lives in `fabkit/commands/<name>.py` and provides `HELP`, `add_arguments(parser)`
-and `run(args) -> int`. Command modules import heavy packages (`robot`, `sim`, mujoco, ur_rtde)
+Each subcommand lives in `fabkit/commands/<name>.py` and provides `HELP`, `add_arguments(parser)`,
+`plan_files(args, plan)` (declares its input and output files) and `run(args) -> int`. Every run
+goes through one output plan (`fabkit.commands._outputs`): files checked before any work, outputs
+written to temporary siblings and renamed together after `run` returns, or removed on an error,
+Ctrl-C or SIGTERM. Command modules import heavy packages (`robot`, `sim`, mujoco, ur_rtde)
 inside `run`, so `fabkit --help` stays fast and `fabkit/` never imports them at module level.
 
 Exit codes: 0 success; 1 ran but missed a tolerance or a check failed; 2 bad input or usage
@@ -11,9 +14,13 @@ FABKIT_DEBUG=1 for the traceback).
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
 import importlib
 import os
+import signal
 import sys
+import threading
 
 from fabkit.errors import InputError, ToleranceError
 
@@ -69,12 +76,12 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         module = _load(name)
         if module is None:
             p = sub.add_parser(name, help=f"{summary} [not built yet]", description=f"{summary}. Not built yet.")
-            p.set_defaults(_run=_not_built(name))
+            p.set_defaults(_run=_not_built(name), _plan_files=lambda args, plan: None)
             continue
         p = sub.add_parser(name, help=summary, description=getattr(module, "HELP", summary),
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(p)
-        p.set_defaults(_run=module.run)
+        p.set_defaults(_run=module.run, _plan_files=module.plan_files)
     return parser
 
 
@@ -84,6 +91,35 @@ def _not_built(name: str):
         return EXIT_INPUT
 
     return run
+
+
+class Terminated(Exception):
+    """SIGTERM or SIGHUP arrived: unwind (outputs removed, workers stopped) and exit 128 + signal."""
+
+    def __init__(self, signum: int):
+        self.signum = signum
+        super().__init__(signal.Signals(signum).name)
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated(signum)
+
+
+@contextlib.contextmanager
+def _terminate_by_unwinding():
+    """SIGTERM/SIGHUP raise `Terminated` in the main thread, so every cleanup runs (once, outermost)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved = {}
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(sig) in (signal.SIG_DFL, None):
+            saved[sig] = signal.signal(sig, _raise_terminated)
+    try:
+        yield
+    finally:
+        for sig, old in saved.items():
+            signal.signal(sig, old)
 
 
 def _chosen_command(argv: list[str]) -> str | None:
@@ -103,8 +139,22 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return EXIT_INPUT
     prog = f"fabkit {args.command}"
+    from fabkit.commands._outputs import OutputPlan
+
+    plan = OutputPlan(prog)
     try:
-        return int(args._run(args) or 0)
+        with _terminate_by_unwinding():
+            try:
+                args._plan_files(args, plan)
+                plan.prepare()
+                code = int(args._run(args) or 0)
+                plan.commit()
+            finally:
+                plan.abort()  # nothing left when run raised; a no-op after commit
+        return code
+    except Terminated as exc:
+        print(f"{prog}: terminated by {exc}; outputs discarded", file=sys.stderr)
+        return 128 + exc.signum
     except InputError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
@@ -112,19 +162,35 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{prog}: {exc}", file=sys.stderr)
         return EXIT_TOLERANCE
     except KeyboardInterrupt:
-        print(f"{prog}: interrupted", file=sys.stderr)
+        print(f"{prog}: interrupted; outputs discarded", file=sys.stderr)
         return 130
     except BrokenPipeError:
         # the reader went away (`fabkit info x.obj | head`): not an error; silence the flush at exit
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return EXIT_OK
+    except OSError as exc:
+        if os.environ.get("FABKIT_DEBUG") or exc.errno not in _ENVIRONMENT_ERRNOS:
+            return _internal(prog, exc)
+        where = exc.filename or "file system"
+        print(f"{prog}: error: {where}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_INPUT
     except Exception as exc:  # a bug, not the user's fault: say so in one line
-        if os.environ.get("FABKIT_DEBUG"):
-            raise
-        print(f"{prog}: internal error: {type(exc).__name__}: {exc} (FABKIT_DEBUG=1 shows the traceback)",
-              file=sys.stderr)
-        return EXIT_INTERNAL
+        return _internal(prog, exc)
+
+
+#: OS errors that are the machine's or the user's doing (full disk, permissions, a folder removed
+#: while running), not fabkit's: exit 2 with the path
+_ENVIRONMENT_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM,
+                       errno.ENAMETOOLONG, errno.EIO, errno.ENOENT, errno.ENOTDIR, errno.EMFILE}
+
+
+def _internal(prog: str, exc: BaseException) -> int:
+    if os.environ.get("FABKIT_DEBUG"):
+        raise exc
+    print(f"{prog}: internal error: {type(exc).__name__}: {exc} (FABKIT_DEBUG=1 shows the traceback)",
+          file=sys.stderr)
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,6 +1,6 @@
 """Typed failures shared by every stage.
 
-The CLI maps `InputError` to exit code 2 (one line naming the file and the problem) and
+The CLI maps `InputError` (and its `OutputError`, a file that cannot be written) to exit code 2 (one line naming the file and the problem) and
 `ToleranceError` to exit code 1 (the run finished but missed a tolerance or a check).
 """
 from __future__ import annotations
@@ -26,6 +26,11 @@ class InputError(FabkitError):
         if self.source:
             return self
         return type(self)(self.message, source=source)
+
+
+class OutputError(InputError):
+    """An output that cannot be written (read-only folder, name too long, full disk, a clash with
+    an input or another output). `source` names the output path; the CLI exits 2."""
 
 
 class MeshError(InputError):

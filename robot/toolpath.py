@@ -184,7 +184,7 @@ class Toolpath:
         for key in REQUIRED_KEYS:
             if key not in d:
                 fail(f"{key}: missing")
-        if d["robot"] not in K.MODELS:
+        if not isinstance(d["robot"], str) or d["robot"] not in K.MODELS:
             fail(f"robot: {d['robot']!r} is not one of {', '.join(K.MODELS)}")
         if not (isinstance(d["tcp"], list) and len(d["tcp"]) == 6 and all(_is_num(x) for x in d["tcp"])
                 and all(abs(x) <= MAX_POSITION_M for x in d["tcp"])):
@@ -220,8 +220,12 @@ class Toolpath:
 
     @classmethod
     def load(cls, path: str | Path) -> "Toolpath":
+        from fabkit.io.validate import check_coordinates
+
         d = load_json(path, "JSON toolpath", missing="toolpath file not found")
-        return cls.from_json(d, source=str(path))
+        tp = cls.from_json(d, source=str(path))
+        check_coordinates([w.pose[:3] for w in tp.waypoints], str(path), "waypoint")
+        return tp
 
 
 def _is_num(x) -> bool:
@@ -243,9 +247,9 @@ def _check_waypoint(w, i, fail) -> None:
              "4 pi rad)")
     if any(abs(x) > MAX_JOINT_RAD for x in w["q"]):
         fail(f"{where}.q: {w['q']} has a joint beyond 4 pi rad")
-    if w["move"] not in MOVES:
+    if not isinstance(w["move"], str) or w["move"] not in MOVES:
         fail(f"{where}.move: {w['move']!r} is not movej or movel")
-    if w["op"] not in OPS:
+    if not isinstance(w["op"], str) or w["op"] not in OPS:
         fail(f"{where}.op: {w['op']!r} is not one of {', '.join(OPS)}")
     for k in ("v", "a"):
         if not (_is_num(w[k]) and 0 < w[k] <= MAX_RATE):

@@ -34,6 +34,9 @@ def program_from_toolpath(tp, cell, sha256: str | None = None) -> Program:
     W = tp.waypoints
     poses = np.array([pose_to_matrix(w.pose) for w in W])
     grip = tp.extra.get("grip", {}) if isinstance(tp.extra, dict) else {}
+    if not (isinstance(grip, dict) and all(isinstance(grip.get(k, 0.0), (int, float)) and not isinstance(
+            grip.get(k, 0.0), bool) and 0 <= grip.get(k, 0.0) < 60 for k in ("grip_dwell_s", "release_dwell_s"))):
+        raise InputError("grip: expected an object with grip_dwell_s and release_dwell_s in seconds (0..60)")
     dwell = np.array([float(grip.get("grip_dwell_s", 0.0)) if w.op == "grip" else
                       float(grip.get("release_dwell_s", 0.0)) if w.op == "release" else 0.0 for w in W])
     states = fold_progress(np.array([w.state for w in W], dtype=np.float64), tuple(w.op for w in W),

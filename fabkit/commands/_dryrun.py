@@ -51,8 +51,15 @@ def start_standin(host: str, cell: str | None, log: Path) -> subprocess.Popen:
     argv = [sys.executable, "-m", "fabkit", "ursim", "--host", host]
     if cell:
         argv += ["--cell", cell]
-    fh = open(log, "w")
-    return subprocess.Popen(argv, stdout=fh, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    import os
+    import signal
+
+    from fabkit.lifeline import die_with_parent
+
+    parent = os.getpid()
+    with open(log, "w") as fh:  # the stand-in shuts down on SIGTERM when this process dies
+        return subprocess.Popen(argv, stdout=fh, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                preexec_fn=lambda: die_with_parent(parent, signal.SIGTERM))
 
 
 def stop_standin(proc: subprocess.Popen, timeout: float = 5.0) -> None:

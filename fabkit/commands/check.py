@@ -48,6 +48,15 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.toolpath, "PATH.json")
+    plan.input(args.cell, "--cell")
+    plan.input(args.fold, "--fold")
+    plan.output(args.output, "-o")
+    plan.output(args.render, "--render")
+    plan.output(args.report, "--report")
+
+
 def _size(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.lower().split("x"))
@@ -76,6 +85,8 @@ def run(args) -> int:
                              "libosmesa6; or set MUJOCO_GL=egl before anything imports mujoco)", source="--render")
     if args.view and not os.environ.get("DISPLAY"):
         raise InputError("no display for the viewer (DISPLAY is not set)", source="--view")
+    if not 2 <= args.frames <= 10000:
+        raise InputError(f"must be in 2..10000, got {args.frames}", source="--frames")
     if args.thickness is not None and not 0 < args.thickness < 0.05:
         raise InputError(f"must be in (0, 0.05) m, got {args.thickness}", source="--thickness")
     out = Path(args.output)

@@ -37,12 +37,21 @@ REPO = Path(__file__).resolve().parents[2]
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="demo-out", metavar="DIR", help="output folder (default: demo-out)")
     p.add_argument("--cell", default=str(REPO / "cells" / "ur5e_bench.toml"), help="robot cell (TOML)")
-    p.add_argument("--frames", type=int, default=12, help="fold states in the refold sequence (default 12)")
+    p.add_argument("--frames", type=int, default=None,
+                   help="fold states in the refold sequence (default 12; 4 with --small)")
     p.add_argument("--small", action="store_true", help="a smaller panel and fewer frames (for tests)")
     p.add_argument("--no-render", action="store_true", help="skip the PNG/MP4 renders of the check")
     p.add_argument("--no-dry-run", action="store_true", help="skip the controller stand-in dry run")
     p.add_argument("--report", metavar="R.json", help="write the summary as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary table")
+
+
+def plan_files(args, plan) -> None:
+    plan.input(args.cell, "--cell")
+    plan.workdir(args.out, "--out")
+    plan.output(Path(args.out) / "summary.json", "--out")
+    plan.output(Path(args.out) / "report.html", "--out")
+    plan.output(args.report, "--report")
 
 
 @dataclass
@@ -157,11 +166,18 @@ def _describe(stage: Stage) -> None:
 
 
 def run(args) -> int:
+    from fabkit.commands.refold import MAX_FRAMES
+    from fabkit.errors import InputError
+    from robot.cell import load_cell
+
+    frames = args.frames if args.frames is not None else 4 if args.small else 12
+    if not 2 <= frames <= MAX_FRAMES:
+        raise InputError(f"must be in 2..{MAX_FRAMES} (flat and target included), got {frames}", source="--frames")
+    load_cell(args.cell)  # a broken cell is refused before the first stage
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     reports = out / "reports"
     reports.mkdir(exist_ok=True)
-    frames = 4 if args.small else args.frames
     gen_params = ["--resolution", "6"] if args.small else []
     p = lambda name: str(out / name)  # noqa: E731
     stages = [

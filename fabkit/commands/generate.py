@@ -188,6 +188,12 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.output(args.output, "-o")
+    plan.output(args.png, "--png")
+    plan.output(args.report, "--report")
+
+
 def _convert(preset: str, name: str, raw: str, spec: Param):
     opt = f"--{name.replace('_', '-')}"
     try:
@@ -245,11 +251,6 @@ def run(args) -> int:
     if _estimate_faces(preset, p) > MAX_FACES:
         raise InputError(f"these parameters make about {_estimate_faces(preset, p):,} faces, more than the "
                          f"{MAX_FACES:,} this command writes; lower the resolution", source=f"preset {preset}")
-    for path in (args.output, args.png, args.report):  # refuse before writing anything
-        if path:
-            parent = Path(path).parent
-            if not (parent if str(parent) else Path(".")).is_dir():
-                raise InputError("output directory does not exist", source=str(path))
     build, _ = PRESETS[preset]
     try:
         mesh = build(p)

@@ -34,6 +34,11 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.file, "FILE")
+    plan.output(args.report, "--report")
+
+
 def _faces_by_size(sizes) -> dict[str, int]:
     import numpy as np
 

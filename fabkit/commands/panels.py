@@ -51,6 +51,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_common(p)
 
 
+#: most faces of the subdivided surface (memory of the panel layout grows with it)
+MAX_SURFACE_FACES = 2_000_000
+
+
+def plan_files(args, plan) -> None:
+    plan.input(args.surface, "SURFACE")
+    plan.folder(args.out, "-o")
+    plan.output(args.report, "--report")
+
+
 def load_surface(path: str, levels: int):
     """A GridSurface from an OBJ quad grid (subdivided when it is a 3-vertex-across low-poly)."""
     import numpy as np
@@ -69,6 +79,9 @@ def load_surface(path: str, levels: int):
         grid[index.ravel()] = np.stack(np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij"), axis=-1).reshape(-1, 2)
         if levels < 1:
             raise InputError("a 3-vertex-across low-poly needs --levels >= 1", source=path)
+        if mesh.n_faces * 4 ** levels > MAX_SURFACE_FACES:
+            raise InputError(f"--levels {levels} would make {mesh.n_faces * 4 ** levels:,} faces, more than the "
+                             f"{MAX_SURFACE_FACES:,} this command handles; lower --levels", source=path)
         return subdivide_grid(mesh.with_data(vertex_data={"grid": grid}), levels), True
     return GridSurface(points=mesh.vertices[index], mesh=mesh, index=index), False
 
@@ -86,6 +99,12 @@ def run(args) -> int:
         raise InputError("tolerances must be positive")
     if args.max_rounds < 0:
         raise InputError(f"--max-rounds must be >= 0, got {args.max_rounds}")
+    if not 0 <= args.levels <= 10:
+        raise InputError(f"--levels must be in 0..10, got {args.levels}")
+    if args.scheduler:
+        from fabkit.panels.executor import check_scheduler
+
+        check_scheduler(args.scheduler)
     surface, lowpoly = load_surface(args.surface, args.levels)
     layout = layout_panels(surface, rows=args.rows, cols=args.cols, columns_per_panel=args.columns_per_panel)
     options = PanelsOptions(tol_congruency=args.tolerance, tol_unfold=args.unfold_tolerance,
@@ -94,7 +113,9 @@ def run(args) -> int:
     n_tasks = len(layout.panels) // (2 if args.symmetric else 1)
     with progress(args, "panels", total=n_tasks * (1 + args.max_rounds)) as advance:
         result = run_panels(layout, options, jobs=args.jobs, scheduler=args.scheduler, progress=advance)
-    report = write_run(result, args.out, plots=not args.no_plots, cut_files=not args.no_cut_files)
+    from fabkit.io.atomic import staging_path
+
+    report = write_run(result, staging_path(args.out), plots=not args.no_plots, cut_files=not args.no_cut_files)
     report["input"] = {"surface": args.surface, "lowpoly": lowpoly, "levels": args.levels if lowpoly else 0}
     write_report(args, report)
     last = result.rounds[-1]

@@ -64,11 +64,28 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+#: most states per folding step: far more than a robot program needs, small enough to fit in memory
+MAX_FRAMES = 10_000
+
+
+def plan_files(args, plan) -> None:
+    plan.input(args.flat, "FLAT")
+    plan.input(args.target, "TARGET")
+    for option in ("drive", "steps"):
+        value = getattr(args, option)
+        if value and Path(value).exists():
+            plan.input(value, f"--{option}")
+    for option in ("output", "glb", "png", "report"):
+        plan.output(getattr(args, option), "-o" if option == "output" else f"--{option}")
+    plan.folder(args.obj_dir, "--obj-dir")
+
+
 def _check_args(args) -> list[Path]:
     from fabkit.errors import InputError
 
-    if args.frames < 2:
-        raise InputError(f"must be at least 2 (flat and target), got {args.frames}", source="--frames")
+    if not 2 <= args.frames <= MAX_FRAMES:
+        raise InputError(f"must be in 2..{MAX_FRAMES} (flat and target included), got {args.frames}",
+                         source="--frames")
     for name in ("length_tol", "target_tol"):
         v = getattr(args, name)
         if not (math.isfinite(v) and v > 0):

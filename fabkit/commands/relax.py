@@ -86,11 +86,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_common(p)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.input, "IN")
+    plan.input(args.edge_lengths, "--edge-lengths")
+    plan.output(args.output, "-o")
+    plan.output(args.report, "--report")
+
+
 def _kept_edges(mesh, path, keep_boundary: bool) -> dict:
     """{edge id: length} from --keep-boundary-lengths and --edge-lengths FILE (the file wins on overlap)."""
     import numpy as np
 
     from fabkit.io.jsonfile import load_json
+    from fabkit.io.validate import check_coordinates
 
     kept: dict[int, float] = {}
     if keep_boundary:
@@ -109,6 +117,7 @@ def _kept_edges(mesh, path, keep_boundary: bool) -> dict:
     if pairs.ndim != 2 or pairs.shape[1] != 2 or lengths.ndim != 1 or len(lengths) != len(pairs):
         raise InputError(f'"edges" must be a list of [u, v] pairs with one length each (got {len(lengths)} '
                          f"lengths for {len(pairs) if pairs.ndim == 2 else '?'} edges)", source=path)
+    check_coordinates(lengths, path, "edge length")
     if not np.all(np.isfinite(pairs) & (pairs == np.round(pairs))):
         raise InputError('"edges" must hold integer vertex ids', source=path)
     ids = mesh.topology.edge_ids(pairs.astype(np.int64))

@@ -3,7 +3,9 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
+import re
 import signal
 import sys
 
@@ -53,6 +55,33 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+#: longest --stall: a frozen controller must be noticed within seconds, never switched off
+MAX_STALL_S = 5.0
+
+_HOST_LABEL = re.compile(r"^(?!-)[A-Za-z0-9-]{1,63}(?<!-)$")
+
+
+def _is_host(text: str) -> bool:
+    """An IPv4/IPv6 address or an RFC 1123 host name."""
+    import ipaddress
+
+    try:
+        ipaddress.ip_address(text)
+        return True
+    except ValueError:
+        pass
+    return len(text) <= 253 and all(_HOST_LABEL.match(label) for label in text.rstrip(".").split("."))
+
+
+def plan_files(args, plan) -> None:
+    plan.input(args.toolpath, "PATH.json")
+    plan.input(args.check, "--check")
+    plan.input(args.cell, "--cell")
+    plan.input(args.fold, "--fold")
+    plan.stream(args.log, "--log")
+    plan.output(args.report, "--report")
+
+
 def _load_check(path: str) -> dict:
     from fabkit.io.jsonfile import load_json
 
@@ -69,8 +98,10 @@ def run(args) -> int:
         raise InputError("no controller address: give --host or set FABKIT_UR_HOST", source="--host")
     if args.chunk < 2:
         raise InputError("a chunk needs at least 2 waypoints", source="--chunk")
-    if not args.stall > 0:
-        raise InputError("must be positive", source="--stall")
+    if not (math.isfinite(args.stall) and 0 < args.stall <= MAX_STALL_S):
+        raise InputError(f"must be a number of seconds in (0, {MAX_STALL_S:g}], got {args.stall}", source="--stall")
+    if not _is_host(args.host):
+        raise InputError(f"{args.host!r} is not an IP address or host name", source="--host")
     tp = Toolpath.load(args.toolpath)
     cell = load_cell(args.cell)
     check = _load_check(args.check)
@@ -98,7 +129,7 @@ def run(args) -> int:
         print(f"fabkit send: stopped: {result.reason}; last completed waypoint {result.last_completed} of {n - 1}"
               + (f"; continue with --resume-from {nxt}" if 0 <= nxt < n else ""), file=sys.stderr)
     write_report(args, {"ok": result.ok, "sent": True, "host": args.host, "toolpath": args.toolpath,
-                        "resume_from": args.resume_from, **result.to_json()})
+                        "toolpath_sha256": tp.sha256, "resume_from": args.resume_from, **result.to_json()})
     return 0 if result.ok else 1
 
 

@@ -53,6 +53,14 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.fold, "SEQ.fold")
+    plan.input(args.cell, "--cell")
+    plan.output(args.output, "-o")
+    plan.output(args.script, "--script")
+    plan.output(args.report, "--report")
+
+
 def _check_args(args) -> None:
     if not (math.isfinite(args.approach) and 0.0 < args.approach <= 0.5):
         raise InputError(f"{args.approach} m is not in (0, 0.5]", source="--approach")

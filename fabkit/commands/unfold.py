@@ -49,6 +49,12 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.input, "IN")
+    for option in ("output", "dxf", "svg", "png", "report"):
+        plan.output(getattr(args, option), "-o" if option == "output" else f"--{option}")
+
+
 def _check_args(args) -> None:
     from fabkit.errors import InputError
 

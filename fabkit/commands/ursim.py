@@ -17,6 +17,12 @@ def add_arguments(parser) -> None:
     add(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.cell, "--cell")
+    plan.stream(args.log, "--log")
+    plan.output(args.report, "--report")
+
+
 def run(args) -> int:
     from sim.ursim.cli import run_stand_in
 

@@ -34,6 +34,7 @@ import numpy as np
 from fabkit.errors import InputError, MeshError
 from fabkit.fold import ASSIGNMENTS, FoldFrame, FoldModel, validate_fold_model
 from fabkit.io.atomic import atomic_write
+from fabkit.io.validate import check_coordinates
 from fabkit.io.obj import read_text
 from fabkit.mesh import validate_mesh
 
@@ -324,7 +325,7 @@ def _coords(value: Any, key: str, unit: str, source: str) -> np.ndarray:
                     out[i, :len(r)] = [_to_si(c, unit) for c in r]
             bad = ~np.all(np.isfinite(out), axis=1)
             if not np.any(bad):
-                return out
+                return check_coordinates(out, source, f"{key}: vertex")
     # slow path: find the first bad entry and say what is wrong with it
     for i, r in enumerate(rows):
         if not isinstance(r, list) or len(r) not in (2, 3) or not all(_is_number(c) for c in r):

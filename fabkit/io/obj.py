@@ -28,6 +28,7 @@ import numpy as np
 
 from fabkit.errors import InputError, MeshError
 from fabkit.io.atomic import atomic_write
+from fabkit.io.validate import check_coordinates
 from fabkit.mesh import PolyMesh, validate_mesh
 
 __all__ = ["load_obj", "save_obj", "parse_obj"]
@@ -206,6 +207,7 @@ def load_obj(path: str | os.PathLike) -> PolyMesh:
     if len(faces) == 0:
         raise MeshError(f"no faces ({len(V)} vertices)", source=source)
     try:
+        check_coordinates(V, None)
         mesh = PolyMesh(V, faces, face_data=face_data, vertex_data=vertex_data, validate=False)
         mesh.warnings = validate_mesh(mesh, source=source)
     except MeshError as exc:

@@ -4,15 +4,20 @@ All three take the same picklable task function and arguments and return results
 order, so a run gives the same numbers wherever it ran: every task runs with single-threaded
 BLAS (threadpoolctl), in-process or in a worker, so no reduction order depends on the number of
 threads.
+Pool workers die with the parent process (`fabkit.lifeline`), even on `kill -9`.
 """
 from __future__ import annotations
 
 import contextlib
 import os
+import socket
 from concurrent.futures import Executor, ProcessPoolExecutor
 from typing import Callable, Iterable, Iterator, Sequence
 
-__all__ = ["panel_executor", "map_ordered", "single_threaded"]
+from fabkit.errors import InputError
+from fabkit.lifeline import die_with_parent
+
+__all__ = ["panel_executor", "map_ordered", "single_threaded", "check_scheduler"]
 
 _SINGLE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
@@ -39,13 +44,33 @@ class _Serial(Executor):
         return f
 
 
+def check_scheduler(address: str, timeout: float = 5.0) -> None:
+    """`InputError` unless `address` is tcp://HOST:PORT (or tls://) and a connection opens within `timeout` s."""
+    from urllib.parse import urlsplit
+
+    try:
+        parts = urlsplit(address if "://" in address else f"tcp://{address}")
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host = port = None
+    if parts.scheme not in ("tcp", "tls") or not host or port is None:
+        raise InputError("expected a dask scheduler address tcp://HOST:PORT", source=address)
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        raise InputError(f"cannot reach the dask scheduler ({exc.strerror or exc})", source=address) from None
+
+
 @contextlib.contextmanager
 def panel_executor(jobs: int = 1, scheduler: str | None = None) -> Iterator[Executor]:
     """`jobs` = 1: in-process; > 1: spawn-based process pool; `scheduler`: a dask.distributed address."""
     if scheduler:
         from distributed import Client
 
-        client = Client(scheduler, timeout=30, set_as_default=False)
+        try:
+            client = Client(scheduler, timeout=30, set_as_default=False)
+        except (OSError, TimeoutError) as exc:
+            raise InputError(f"cannot reach the dask scheduler ({exc})", source=scheduler) from None
         try:
             yield client.get_executor()
         finally:
@@ -59,8 +84,14 @@ def panel_executor(jobs: int = 1, scheduler: str | None = None) -> Iterator[Exec
     saved = {k: os.environ.get(k) for k in _SINGLE_THREAD}
     os.environ.update(_SINGLE_THREAD)  # inherited by the spawned workers before they import numpy
     try:
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn")) as pool:
+        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
+                                   initializer=die_with_parent, initargs=(os.getpid(),))
+        try:
             yield pool
+        except BaseException:  # an error, Ctrl-C or SIGTERM: drop the queued panels, do not wait for them
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown(wait=True)
     finally:
         for k, v in saved.items():
             if v is None:

@@ -91,6 +91,8 @@ class RelaxOptions:
             raise ValueError(f"damping must be in [0, 1), got {self.damping}")
         if not (np.isfinite(self.row_width) and self.row_width > 0):
             raise ValueError(f"row_width must be positive, got {self.row_width}")
+        if self.max_seconds is not None and not (np.isfinite(self.max_seconds) and self.max_seconds > 0):
+            raise ValueError(f"max_seconds must be a positive number of seconds, got {self.max_seconds}")
         if int(self.max_iter) < 0 or int(self.newton_max_iter) < 0:
             raise ValueError("iteration limits must be >= 0")
         object.__setattr__(self, "fixed", tuple(int(i) for i in self.fixed))
