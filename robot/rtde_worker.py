@@ -177,7 +177,7 @@ def serve(fd: int, host: str) -> None:
 
     from fabkit.lifeline import die_with_parent
 
-    die_with_parent(getattr(mp.parent_process(), "pid", None))  # never outlive the sender, even on kill -9
+    die_with_parent(os.getppid())  # never outlive the sender, even on kill -9
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     conn = Connection(fd)
     ch = _Channels(host)

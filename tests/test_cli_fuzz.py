@@ -168,8 +168,8 @@ def _still_passes(check_text: str, path_text: str) -> bool:
     try:
         c, p = json.loads(check_text), json.loads(path_text)
         return (isinstance(c, dict) and isinstance(p, dict) and c.get("ok") is True
-                and c.get("format") == "fabkit.check/1" and c.get("toolpath_sha256") == p.get("sha256")
-                and p.get("waypoints") == json.loads(_inputs["path"]).get("waypoints"))
+                and c.get("format") == "fabkit.check/2" and c.get("toolpath_sha256") == p.get("sha256")
+                and p == json.loads(_inputs["path"]))
     except (ValueError, AttributeError):
         return False
 
@@ -181,7 +181,7 @@ def test_malformed_toolpath(files, data, command):
     content = data.draw(mutated_json(_inputs["path"]))
     if command == "send":
         assume(not _still_passes((files / "check.json").read_text(), content))
-        argv = lambda bad, f, out: ["send", bad, "--check", f("check.json"), "--host", "127.0.0.9",  # noqa: E731
+        argv = lambda bad, f, out: ["send", bad, "--check", f("check.json"), "--cell", f("cell.toml"), "--host", "127.0.0.9",  # noqa: E731
                                     "--report", f"{out}/s.json"]
     else:
         argv = lambda bad, f, out: ["check", bad, "--cell", f("cell.toml"), "--fold", f("fold.fold"),  # noqa: E731
@@ -195,7 +195,7 @@ def test_malformed_check_report(files, data):
     _inputs["path"] = (files / "path.json").read_text()
     content = data.draw(mutated_json((files / "check.json").read_text()))
     assume(not _still_passes(content, _inputs["path"]))
-    check_run(lambda bad, f, out: ["send", f("path.json"), "--check", bad, "--host", "127.0.0.9",
+    check_run(lambda bad, f, out: ["send", f("path.json"), "--check", bad, "--cell", f("cell.toml"), "--host", "127.0.0.9",
                                    "--report", f"{out}/s.json"], content, "bad.json", files)
 
 

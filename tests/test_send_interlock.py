@@ -262,14 +262,14 @@ def test_check_fold_verifies_the_fold_hash_and_bad_coordinates_are_bad_input(job
     (tmp_path / "huge.fold").write_text(json.dumps(fold))
     rc, out, err = fabkit(capsys, "toolpath", tmp_path / "huge.fold", "--cell", job / "cell.toml", "-o",
                           tmp_path / "p.json")
-    assert rc == 2 and "file_frames[3]: vertex 7" in err and not (tmp_path / "p.json").exists()
+    assert rc == 2 and "file_frames[3]" in err and "vertex 7" in err and not (tmp_path / "p.json").exists()
     # the same file handed to the check of a toolpath that names it (re-sealed to name it)
     doc = json.loads((job / "path.json").read_text())
     doc["source"]["file"] = "huge.fold"
     doc["source"]["sha256"] = __import__("hashlib").sha256((tmp_path / "huge.fold").read_bytes()).hexdigest()
     (tmp_path / "p2.json").write_text(json.dumps(_reseal(doc)))
     rc, out, err = fabkit(capsys, "check", tmp_path / "p2.json", "--cell", job / "cell.toml", "-o", tmp_path / "c.json")
-    assert rc == 2 and "file_frames[3]: vertex 7" in err and not (tmp_path / "c.json").exists()
+    assert rc == 2 and "file_frames[3]" in err and "vertex 7" in err and not (tmp_path / "c.json").exists()
 
 
 def test_a_user_script_sends_without_a_main_guard(job, tmp_path):
