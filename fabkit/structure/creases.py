@@ -7,19 +7,21 @@ crease may fold by anything from a few degrees to nearly 180°. So each interior
 with its *parallel neighbours across its two faces* (in a quad, the opposite edge; triangles are
 first paired into quads across their longest edge, the diagonal of a triangulated quad):
 
-    jump(e) = |θ_e| − min(|θ_a|, |θ_b|)        a, b the parallel neighbours (interior ones only)
+    jump(e) = |θ_e| − mean(|θ_a|, |θ_b|)        a, b the parallel neighbours (interior ones only)
 
 On a smooth developable strip the parallel neighbours bend like e (jump ≈ 0: the bending changes
 slowly across a face), on a crease they bend like the surface beside the crease, not like the
-crease (jump ≈ the fold angle). Taking the smaller neighbour keeps a crease next to another crease
-or the boundary a crease. The noise level σ = 1.4826 · median |jump| over all interior edges (a
+crease (jump ≈ the fold angle). The mean of both sides (not the smaller one) keeps a ruling whose
+neighbour on one side happens to bend little (noise, uneven rulings) from looking like a jump; a
+crease next to an equal crease one face away still jumps by half its fold. The noise level σ = 1.4826 · median |jump| over all interior edges (a
 robust scale; 0 on exact input); a jump counts as strong above max(6σ, `MIN_JUMP`) and weak above
 max(3σ, `MIN_JUMP` / 2).
 
 Chains: creases are traced from strong edges (largest jump first) through the incident edge that
 continues the curve (turning by at most `MAX_TURN`) with the largest jump, as long as it is weak
 or stronger — hysteresis, so a crease whose fold fades near its end stays one chain. A chain is kept
-only when both its ends reach the boundary, another kept chain (a junction), or each other (a
+only when its median jump is strong (a ruling also runs from boundary to boundary, but jumps only by
+noise) and both its ends reach the boundary, another kept chain (a junction), or each other (a
 closed loop): isolated noisy edges never form such a curve, so they are dropped. Everything above
 uses coordinates and comparisons of geometric values only (ties broken by edge midpoint
 coordinates), so the result does not depend on vertex or face order.
@@ -147,8 +149,9 @@ def crease_jumps(mesh: PolyMesh, angle: np.ndarray | None = None) -> tuple[np.nd
     faces, diagonal = _pair_triangles(mesh)
     opp = _opposite_edges(mesh, faces)
     ok = (opp >= 0) & ~t.boundary_edge_mask[np.maximum(opp, 0)]
-    bg = np.where(ok, a[np.maximum(opp, 0)], np.inf).min(axis=1)
-    jump = np.where(np.isfinite(bg), a - bg, np.nan)
+    n = ok.sum(axis=1)
+    bg = np.where(ok, a[np.maximum(opp, 0)], 0.0).sum(axis=1) / np.maximum(n, 1)
+    jump = np.where(n > 0, a - bg, np.nan)
     jump[t.boundary_edge_mask | diagonal] = np.nan
     return jump, diagonal
 
@@ -229,6 +232,11 @@ def detect_creases(mesh: PolyMesh, angle: np.ndarray | None = None) -> CreaseDet
             continue
         back = walk(u, e) if not bnd[u] else []
         chains.append(back[::-1] + [u, v] + fwd)
+    def median_jump(c):
+        e = t.edge_ids(np.stack([c[:-1], c[1:]], axis=1))
+        return float(np.median(np.where(np.isfinite(score[e]), score[e], 0.0)))
+
+    chains = [c for c in chains if median_jump(c) > strong]
     crease = _keep_connected(chains, bnd, E2, t)
     kept = tuple(c for c, k in zip(chains, crease[1]) if k)
     return CreaseDetection(crease=crease[0], jump=jump, sigma=sigma, strong=strong, weak=weak, chains=kept)
