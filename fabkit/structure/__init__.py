@@ -23,8 +23,10 @@ from fabkit.structure.creases import CreaseDetection, chain_edges, chain_fold_an
 from fabkit.structure.layout import (comes_first, geometric_key, middle_row_faces, order_strips, quad_ribbons,
                                      strip_components)
 
-__all__ = ["PanelStructure", "panel_structure", "crease_mask", "chain_edges", "detect_creases", "FLAT_ANGLE"]
+__all__ = ["PanelStructure", "panel_structure", "pair_structure", "crease_mask", "chain_edges", "detect_creases", "FLAT_ANGLE"]
 
+#: The face tags that carry structure (docs/CONTRACTS.md "Panel tags").
+TAG_NAMES = ("strip", "column", "middle")
 #: A crease folded by less than this [rad] counts as flat: mountain/valley unknown ("U").
 FLAT_ANGLE = 1e-9
 
@@ -97,8 +99,23 @@ class PanelStructure:
 
 
 def crease_mask(mesh: PolyMesh) -> np.ndarray:
-    """(E,) bool: the panel's crease edges (tags if present, else inferred): `panel_structure(mesh).crease`."""
-    return panel_structure(mesh).crease
+    """(E,) bool: the panel's crease edges (tags if present, else inferred), as `panel_structure(mesh).crease`
+    without the middle row and the rest."""
+    return _creases_and_strips(mesh, mesh.face_data, dihedral_angles(mesh))[0]
+
+
+def _creases_and_strips(mesh: PolyMesh, fd, angle):
+    """(crease (E,), strip (F,) 0..k-1, oriented chains, detection or None, source)."""
+    if "strip" in fd:
+        raw = np.asarray(fd["strip"]).astype(np.int64)
+        crease = _strip_crease(mesh, raw)
+        strip = np.searchsorted(np.unique(raw), raw)
+        return crease, strip, _oriented_chains(mesh, crease, None), None, "tags"
+    detection = detect_creases(mesh, angle)
+    strip = order_strips(mesh, strip_components(mesh, detection.crease), detection.crease)
+    crease = _strip_crease(mesh, strip)  # a chain that separates nothing is not a crease
+    kept = [c for c in detection.chains if crease[mesh.topology.edge_ids([[c[0], c[1]]])[0]]]
+    return crease, strip, _oriented_chains(mesh, crease, kept), detection, "inferred"
 
 
 def _strip_crease(mesh: PolyMesh, strip: np.ndarray) -> np.ndarray:
@@ -127,21 +144,8 @@ def panel_structure(mesh: PolyMesh, *, use_tags: bool = True) -> PanelStructure:
     t = mesh.topology
     fd = mesh.face_data if use_tags else {}
     angle = dihedral_angles(mesh)
-    source = {}
-    detection = None
-    if "strip" in fd:
-        raw = np.asarray(fd["strip"]).astype(np.int64)
-        crease = _strip_crease(mesh, raw)
-        strip = np.searchsorted(np.unique(raw), raw)
-        chains = _oriented_chains(mesh, crease, None)
-        source["creases"] = source["strips"] = "tags"
-    else:
-        detection = detect_creases(mesh, angle)
-        crease = detection.crease
-        strip = order_strips(mesh, strip_components(mesh, crease), crease)
-        crease = _strip_crease(mesh, strip)  # a chain that separates nothing is not a crease
-        chains = _oriented_chains(mesh, crease, [c for c in detection.chains])
-        source["creases"] = source["strips"] = "inferred"
+    crease, strip, chains, detection, how = _creases_and_strips(mesh, fd, angle)
+    source = {"creases": how, "strips": how}
     fold = chain_fold_angles(mesh, chains, angle)
     assignment = np.full(t.n_edges, "F", dtype="<U1")
     assignment[crease & (fold > FLAT_ANGLE)] = "V"
@@ -187,6 +191,13 @@ def panel_structure(mesh: PolyMesh, *, use_tags: bool = True) -> PanelStructure:
                           chains=tuple(np.asarray(c, np.int64) for c in chains), strip=strip, column=column,
                           middle=middle, middle_row=np.asarray(row, np.int64), middle_creases=mid_creases,
                           clamp_face=clamp, grip_faces=grips, source=source, detection=detection)
+
+
+def pair_structure(flat: PolyMesh, folded: PolyMesh) -> PanelStructure:
+    """The structure of a FLAT / folded pair with the same faces: the tags of either (FLAT's win), the
+    rest inferred from the folded geometry (a flat pattern shows no creases)."""
+    tags = {k: v for k, v in {**folded.face_data, **flat.face_data}.items() if k in TAG_NAMES}
+    return panel_structure(PolyMesh(folded.vertices, topology=folded.topology, face_data=tags, validate=False))
 
 
 def _middle_creases(mesh, crease, crease_row, strip, column, row, ribbon) -> np.ndarray:

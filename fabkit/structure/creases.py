@@ -14,7 +14,8 @@ slowly across a face), on a crease they bend like the surface beside the crease,
 crease (jump ≈ the fold angle). The mean of both sides (not the smaller one) keeps a ruling whose
 neighbour on one side happens to bend little (noise, uneven rulings) from looking like a jump; a
 crease next to an equal crease one face away still jumps by half its fold. The noise level σ = 1.4826 · median |jump| over all interior edges (a
-robust scale; 0 on exact input); a jump counts as strong above max(6σ, `MIN_JUMP`) and weak above
+robust scale over the edges with jump >= 0, as the edges beside a crease jump down by half its
+fold; 0 on exact input); a jump counts as strong above max(6σ, `MIN_JUMP`) and weak above
 max(3σ, `MIN_JUMP` / 2).
 
 Chains: creases are traced from strong edges (largest jump first) through the incident edge that
@@ -170,7 +171,8 @@ def detect_creases(mesh: PolyMesh, angle: np.ndarray | None = None) -> CreaseDet
     angle = dihedral_angles(mesh) if angle is None else np.asarray(angle, np.float64)
     jump, diagonal = crease_jumps(mesh, angle)
     finite = np.isfinite(jump)
-    sigma = float(1.4826 * np.median(np.abs(jump[finite]))) if finite.any() else 0.0
+    up = jump[finite & (jump >= 0)]  # edges beside a crease jump *down* by half its fold: not noise
+    sigma = float(1.4826 * np.median(up)) if len(up) else 0.0
     strong = max(STRONG_SIGMA * sigma, MIN_JUMP)
     weak = max(WEAK_SIGMA * sigma, MIN_JUMP / 2)
     # an edge with no interior parallel neighbour is judged by its own angle against the weak level
