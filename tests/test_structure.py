@@ -107,3 +107,16 @@ def test_flat_untagged_mesh_has_no_creases():
     flat = plain(tagged, np.column_stack([uv, np.zeros(len(uv))]))
     s = panel_structure(flat)
     assert not s.crease.any() and s.n_strips == 1
+
+
+def test_strips_one_face_wide_and_the_trifold_preset():
+    from fold_fixtures import folded_grid_model
+    from fabkit.generate.trifold import trifold_panel
+
+    grid = folded_grid_model(n_states=3, angles=[np.radians(30), np.radians(-45)]).frame_mesh(-1)
+    s = panel_structure(plain(grid))
+    assert np.array_equal(s.crease, true_creases(grid)) and s.n_strips == 3
+    assert s.clamp_face == 7 and sorted(s.grip_faces.tolist()) == [6, 8]        # middle column, middle strip
+    tri = trifold_panel()
+    s = panel_structure(plain(tri))
+    assert np.array_equal(s.crease, true_creases(tri)) and s.n_strips == 3

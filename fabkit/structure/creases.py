@@ -14,8 +14,8 @@ slowly across a face), on a crease they bend like the surface beside the crease,
 crease (jump ≈ the fold angle). The mean of both sides (not the smaller one) keeps a ruling whose
 neighbour on one side happens to bend little (noise, uneven rulings) from looking like a jump; a
 crease next to an equal crease one face away still jumps by half its fold. The noise level σ = 1.4826 · median |jump| over all interior edges (a
-robust scale over the edges with jump >= 0, as the edges beside a crease jump down by half its
-fold; 0 on exact input); a jump counts as strong above max(6σ, `MIN_JUMP`) and weak above
+robust scale over the edges with 0 <= jump < `MAX_NOISE_JUMP`: the edges beside a crease jump down by
+half its fold, and on a small panel creases may be most of the edges; 0 on exact input); a jump counts as strong above max(6σ, `MIN_JUMP`) and weak above
 max(3σ, `MIN_JUMP` / 2).
 
 Chains: creases are traced from strong edges (largest jump first) through the incident edge that
@@ -32,9 +32,13 @@ Mountain/valley: the signed fold angle (FOLD convention, valley +) is unwrapped 
 ±180°: a crease folded to 177–179.5° whose measured angle flips to −179.9° at one end stays one
 assignment.
 
+Narrow panels: where fewer than two interior parallel edges lie across the panel from an edge (strips
+one face wide, e.g. a tri-fold with one row of faces per strip), smooth bending cannot be seen, and
+the edge is compared with the sides of the faces beside it (the edges that cross it) instead. A
+cylinder of three facets is then a tri-fold, which is what its geometry is.
+
 Not handled: a crease that kinks by more than `MAX_TURN` at a vertex is traced as two chains (each
-must reach the boundary or a junction); three creases one face apart (a strip of one face between
-two creases on both sides) leave the middle one with no smooth neighbour.
+must reach the boundary or a junction).
 """
 from __future__ import annotations
 
@@ -51,6 +55,9 @@ __all__ = ["CreaseDetection", "detect_creases", "chain_edges", "chain_fold_angle
 #: A jump of the fold angle below this [rad] never seeds a crease (2°; half of it continues one): round-off
 #: on exact input must not decide.
 MIN_JUMP = np.radians(2.0)
+#: Jumps above this [rad] never count towards the noise scale (10°): on a small panel most edges may
+#: be creases, and noise that bends edges by more cannot be told from creases anyway.
+MAX_NOISE_JUMP = np.radians(10.0)
 #: Strong / weak thresholds in units of the noise scale σ.
 STRONG_SIGMA, WEAK_SIGMA = 6.0, 3.0
 #: A crease chain turns by at most this much [rad] at one vertex.
@@ -110,13 +117,15 @@ def _pair_triangles(mesh: PolyMesh) -> tuple[list[list[int]], np.ndarray]:
     return faces, diagonal
 
 
-def _opposite_edges(mesh: PolyMesh, faces: list[list[int]]) -> np.ndarray:
-    """(E, 2): per mesh edge, the edge of the analysis face on each side that does not touch it
-    (the opposite side of a quad; for larger polygons the most anti-parallel such edge); -1 if none."""
+def _neighbour_edges(mesh: PolyMesh, faces: list[list[int]]) -> tuple[np.ndarray, np.ndarray]:
+    """Per mesh edge, in the analysis faces beside it: `opposite` (E, 2) the edge that does not touch
+    it (the opposite side of a quad; for larger polygons the most anti-parallel such edge), -1 if
+    none; `sides` (E, 4) the edges that touch it (a quad's two other sides, per face), -1 if none."""
     t = mesh.topology
-    out = np.full((t.n_edges, 2), -1, np.int64)
+    opposite = np.full((t.n_edges, 2), -1, np.int64)
+    sides = np.full((t.n_edges, 4), -1, np.int64)
     V = mesh.vertices
-    pairs, opp = [], []
+    pairs, opp, side_a, side_b = [], [], [], []
     for f in faces:
         k = len(f)
         if k < 4:
@@ -129,30 +138,47 @@ def _opposite_edges(mesh: PolyMesh, faces: list[list[int]]) -> np.ndarray:
                 cand.sort(key=lambda uv: float(np.dot(V[uv[1]] - V[uv[0]], d)))
             pairs.append((a, b))
             opp.append(cand[0])
+            side_a.append((f[(i - 1) % k], a))
+            side_b.append((b, f[(i + 2) % k]))
     if not pairs:
-        return out
-    e = t.edge_ids(pairs)
-    o = t.edge_ids(opp)
-    for ei, oi in zip(e.tolist(), o.tolist()):
-        if ei < 0 or oi < 0:
+        return opposite, sides
+    e, o = t.edge_ids(pairs), t.edge_ids(opp)
+    sa, sb = t.edge_ids(side_a), t.edge_ids(side_b)
+    for ei, oi, ai, bi in zip(e.tolist(), o.tolist(), sa.tolist(), sb.tolist()):
+        if ei < 0:
             continue
-        slot = 0 if out[ei, 0] < 0 else 1
-        out[ei, slot] = oi
-    return out
+        slot = 0 if opposite[ei, 0] < 0 and sides[ei, 0] < 0 else 1
+        opposite[ei, slot] = oi
+        sides[ei, 2 * slot], sides[ei, 2 * slot + 1] = ai, bi
+    return opposite, sides
 
 
 def crease_jumps(mesh: PolyMesh, angle: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(jump (E,) [rad], diagonal (E,) bool): see the module docstring. NaN on boundary edges, pairing
-    diagonals and edges with no interior parallel neighbour."""
+    diagonals and edges with no interior neighbour to compare with."""
     t = mesh.topology
     angle = dihedral_angles(mesh) if angle is None else angle
     a = np.abs(angle)
     faces, diagonal = _pair_triangles(mesh)
-    opp = _opposite_edges(mesh, faces)
-    ok = (opp >= 0) & ~t.boundary_edge_mask[np.maximum(opp, 0)]
-    n = ok.sum(axis=1)
-    bg = np.where(ok, a[np.maximum(opp, 0)], 0.0).sum(axis=1) / np.maximum(n, 1)
-    jump = np.where(n > 0, a - bg, np.nan)
+    opp, sides = _neighbour_edges(mesh, faces)
+    interior = ~t.boundary_edge_mask
+
+    def mean_of(nb):
+        ok = (nb >= 0) & interior[np.maximum(nb, 0)]
+        n = ok.sum(axis=1)
+        return np.where(ok, a[np.maximum(nb, 0)], 0.0).sum(axis=1) / np.maximum(n, 1), n
+
+    bg, n = mean_of(opp)
+    # parallel run: interior edges one and two faces away across the panel (the second one is the
+    # first one's other opposite edge)
+    o1 = np.where((opp >= 0) & interior[np.maximum(opp, 0)], opp, -1)
+    o2 = np.where(o1 >= 0, opp[np.maximum(o1, 0), 0], -1)
+    o2 = np.where((o2 == np.arange(t.n_edges)[:, None]), opp[np.maximum(o1, 0), 1], o2)
+    run = (o1 >= 0).sum(axis=1) + ((o2 >= 0) & interior[np.maximum(o2, 0)] & (o1 >= 0)).sum(axis=1)
+    side_bg, n_side = mean_of(sides)
+    narrow = (run < 2) & (n_side > 0)
+    bg = np.where(narrow, side_bg, bg)
+    jump = np.where((n > 0) | narrow, a - bg, np.nan)
     jump[t.boundary_edge_mask | diagonal] = np.nan
     return jump, diagonal
 
@@ -171,7 +197,8 @@ def detect_creases(mesh: PolyMesh, angle: np.ndarray | None = None) -> CreaseDet
     angle = dihedral_angles(mesh) if angle is None else np.asarray(angle, np.float64)
     jump, diagonal = crease_jumps(mesh, angle)
     finite = np.isfinite(jump)
-    up = jump[finite & (jump >= 0)]  # edges beside a crease jump *down* by half its fold: not noise
+    # edges beside a crease jump *down* by half its fold, creases jump by their fold: neither is noise
+    up = jump[finite & (jump >= 0) & (jump < MAX_NOISE_JUMP)]
     sigma = float(1.4826 * np.median(up)) if len(up) else 0.0
     strong = max(STRONG_SIGMA * sigma, MIN_JUMP)
     weak = max(WEAK_SIGMA * sigma, MIN_JUMP / 2)
