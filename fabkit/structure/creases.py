@@ -13,15 +13,20 @@ On a smooth developable strip the parallel neighbours bend like e (jump ≈ 0: t
 slowly across a face), on a crease they bend like the surface beside the crease, not like the
 crease (jump ≈ the fold angle). The mean of both sides (not the smaller one) keeps a ruling whose
 neighbour on one side happens to bend little (noise, uneven rulings) from looking like a jump; a
-crease next to an equal crease one face away still jumps by half its fold. The noise level σ = 1.4826 · median |jump| over all interior edges (a
-robust scale over the edges with 0 <= jump < `MAX_NOISE_JUMP`: the edges beside a crease jump down by
-half its fold, and on a small panel creases may be most of the edges; 0 on exact input); a jump counts as strong above max(6σ, `MIN_JUMP`) and weak above
-max(3σ, `MIN_JUMP` / 2).
+crease next to an equal crease one face away still jumps by half its fold.
 
-Chains: creases are traced from strong edges (largest jump first) through the incident edge that
-continues the curve (turning by at most `MAX_TURN`) with the largest jump, as long as it is weak
+Noise: vertex noise d tilts a face of width h (area / edge length) by about d / h, so the jump times
+h is compared, not the jump: one noise scale then serves long and short faces alike (on a fine
+cylinder strip 1 % noise bends the short rulings by ~10° but the long level edges by ~0.3°). The
+scale σ_z = 1.4826 · median(jump · h) over the edges with 0 <= jump < `MAX_NOISE_JUMP` (the edges
+beside a crease jump down by half its fold, and on a small panel creases may be most of the edges;
+0 on exact input). An edge is strong when its jump exceeds `MIN_JUMP` and jump · h exceeds 6 σ_z,
+weak above `MIN_JUMP` / 2 and 3 σ_z.
+
+Chains: creases are traced from strong edges (largest jump · h first) through the incident edge that
+continues the curve (turning by at most `MAX_TURN`) with the largest jump · h, as long as it is weak
 or stronger — hysteresis, so a crease whose fold fades near its end stays one chain. A chain is kept
-only when its median jump is strong (a ruling also runs from boundary to boundary, but jumps only by
+only when its median edge is strong (a ruling also runs from boundary to boundary, but jumps only by
 noise) and both its ends reach the boundary, another kept chain (a junction), or each other (a
 closed loop): isolated noisy edges never form such a curve, so they are dropped. Everything above
 uses coordinates and comparisons of geometric values only (ties broken by edge midpoint
@@ -67,7 +72,8 @@ MAX_TURN = np.radians(45.0)
 @dataclass(frozen=True, eq=False)
 class CreaseDetection:
     """Per edge of the mesh: `crease` (E,) bool, `jump` (E,) [rad] (NaN where no neighbour), the
-    noise scale `sigma` [rad], thresholds `strong`/`weak` [rad] and the kept `chains` as vertex lists."""
+    noise scale `sigma` [rad, on a face of median width], thresholds `strong`/`weak` [rad, the same]
+    and the kept `chains` as vertex lists."""
 
     crease: np.ndarray
     jump: np.ndarray
@@ -197,18 +203,29 @@ def detect_creases(mesh: PolyMesh, angle: np.ndarray | None = None) -> CreaseDet
     angle = dihedral_angles(mesh) if angle is None else np.asarray(angle, np.float64)
     jump, diagonal = crease_jumps(mesh, angle)
     finite = np.isfinite(jump)
+    # vertex noise d tilts a face of width h by d / h: jump x h is noise of the same size on long and
+    # short faces, so one noise scale serves every edge direction
+    L = np.maximum(mesh.edge_lengths, 1e-300)
+    ef = t.edge_faces
+    h = (mesh.face_areas[np.maximum(ef[:, 0], 0)] + mesh.face_areas[np.maximum(ef[:, 1], 0)]) / (2 * L)
+    z = np.where(finite, jump, 0.0) * h
     # edges beside a crease jump *down* by half its fold, creases jump by their fold: neither is noise
-    up = jump[finite & (jump >= 0) & (jump < MAX_NOISE_JUMP)]
-    sigma = float(1.4826 * np.median(up)) if len(up) else 0.0
+    noise = finite & (jump >= 0) & (jump < MAX_NOISE_JUMP)
+    sigma_z = float(1.4826 * np.median(z[noise])) if noise.any() else 0.0
+    h_typ = float(np.median(h[finite])) if finite.any() else 1.0
+    sigma = sigma_z / h_typ
+    strong_edge = finite & (jump > MIN_JUMP) & (z > STRONG_SIGMA * sigma_z)
+    # an edge with no interior neighbour to compare with can continue a crease on its own angle
+    lone = ~finite & ~t.boundary_edge_mask & ~diagonal
+    weak_edge = (finite & (jump > MIN_JUMP / 2) & (z > WEAK_SIGMA * sigma_z)) | (lone & (np.abs(angle) > MIN_JUMP))
     strong = max(STRONG_SIGMA * sigma, MIN_JUMP)
     weak = max(WEAK_SIGMA * sigma, MIN_JUMP / 2)
-    # an edge with no interior parallel neighbour is judged by its own angle against the weak level
-    score = np.where(finite, jump, np.where(~t.boundary_edge_mask & ~diagonal, np.abs(angle) - weak, -np.inf))
-    score[t.boundary_edge_mask | diagonal] = -np.inf
+    score = np.where(finite, z, np.abs(angle) * h)
+    score[~weak_edge] = -np.inf
     V = mesh.vertices
     E2 = t.edges
     inc: dict[int, list[int]] = defaultdict(list)
-    for e in np.flatnonzero(score > weak).tolist():
+    for e in np.flatnonzero(weak_edge).tolist():
         u, v = E2[e]
         inc[int(u)].append(e)
         inc[int(v)].append(e)
@@ -248,8 +265,8 @@ def detect_creases(mesh: PolyMesh, angle: np.ndarray | None = None) -> CreaseDet
                 break
         return path
 
-    for e in _edge_order(mesh, score).tolist():
-        if score[e] <= strong:
+    for e in _edge_order(mesh, np.where(strong_edge, score, -np.inf)).tolist():
+        if not strong_edge[e]:
             break
         if used[e]:
             continue
@@ -261,11 +278,12 @@ def detect_creases(mesh: PolyMesh, angle: np.ndarray | None = None) -> CreaseDet
             continue
         back = walk(u, e) if not bnd[u] else []
         chains.append(back[::-1] + [u, v] + fwd)
-    def median_jump(c):
+    def strong_chain(c):
         e = t.edge_ids(np.stack([c[:-1], c[1:]], axis=1))
-        return float(np.median(np.where(np.isfinite(score[e]), score[e], 0.0)))
+        return (np.median(np.where(finite[e], jump[e], 0.0)) > MIN_JUMP
+                and np.median(np.where(finite[e], z[e], 0.0)) > STRONG_SIGMA * sigma_z)
 
-    chains = [c for c in chains if median_jump(c) > strong]
+    chains = [c for c in chains if strong_chain(c)]
     crease = _keep_connected(chains, bnd, E2, t)
     kept = tuple(c for c, k in zip(chains, crease[1]) if k)
     return CreaseDetection(crease=crease[0], jump=jump, sigma=sigma, strong=strong, weak=weak, chains=kept)
