@@ -131,31 +131,37 @@ def _neighbour_edges(mesh: PolyMesh, faces: list[list[int]]) -> tuple[np.ndarray
     opposite = np.full((t.n_edges, 2), -1, np.int64)
     sides = np.full((t.n_edges, 4), -1, np.int64)
     V = mesh.vertices
-    pairs, opp, side_a, side_b = [], [], [], []
-    for f in faces:
+    quads = np.array([f for f in faces if len(f) == 4], np.int64).reshape(-1, 4)
+    i = np.arange(4)
+    cols = [quads[:, (i + k) % 4] for k in range(4)]           # corner i and the three after it
+    pairs = [np.stack([cols[0].ravel(), cols[1].ravel()], 1)]
+    opp = [np.stack([cols[2].ravel(), cols[3].ravel()], 1)]
+    side_a = [np.stack([cols[3].ravel(), cols[0].ravel()], 1)]
+    side_b = [np.stack([cols[1].ravel(), cols[2].ravel()], 1)]
+    for f in faces:  # larger polygons (rare): the most anti-parallel non-adjacent side
         k = len(f)
-        if k < 4:
+        if k < 5:
             continue
-        for i in range(k):
-            a, b = f[i], f[(i + 1) % k]
-            cand = [(f[j], f[(j + 1) % k]) for j in range(k) if j not in (i, (i - 1) % k, (i + 1) % k)]
-            if len(cand) > 1:
-                d = V[b] - V[a]
-                cand.sort(key=lambda uv: float(np.dot(V[uv[1]] - V[uv[0]], d)))
-            pairs.append((a, b))
-            opp.append(cand[0])
-            side_a.append((f[(i - 1) % k], a))
-            side_b.append((b, f[(i + 2) % k]))
-    if not pairs:
-        return opposite, sides
-    e, o = t.edge_ids(pairs), t.edge_ids(opp)
-    sa, sb = t.edge_ids(side_a), t.edge_ids(side_b)
-    for ei, oi, ai, bi in zip(e.tolist(), o.tolist(), sa.tolist(), sb.tolist()):
-        if ei < 0:
-            continue
-        slot = 0 if opposite[ei, 0] < 0 and sides[ei, 0] < 0 else 1
-        opposite[ei, slot] = oi
-        sides[ei, 2 * slot], sides[ei, 2 * slot + 1] = ai, bi
+        for j in range(k):
+            a, b = f[j], f[(j + 1) % k]
+            cand = [(f[m], f[(m + 1) % k]) for m in range(k) if m not in (j, (j - 1) % k, (j + 1) % k)]
+            d = V[b] - V[a]
+            cand.sort(key=lambda uv: float(np.dot(V[uv[1]] - V[uv[0]], d)))
+            pairs.append(np.array([[a, b]]))
+            opp.append(np.array([cand[0]]))
+            side_a.append(np.array([[f[(j - 1) % k], a]]))
+            side_b.append(np.array([[b, f[(j + 2) % k]]]))
+    e = t.edge_ids(np.concatenate(pairs))
+    o, sa, sb = (t.edge_ids(np.concatenate(x)) for x in (opp, side_a, side_b))
+    keep = e >= 0
+    e, o, sa, sb = e[keep], o[keep], sa[keep], sb[keep]
+    order = np.argsort(e, kind="stable")
+    es = e[order]
+    slot = np.zeros(len(es), np.int64)
+    slot[1:] = (es[1:] == es[:-1]).astype(np.int64)          # second face of the same edge -> slot 1
+    opposite[es, slot] = o[order]
+    sides[es, 2 * slot] = sa[order]
+    sides[es, 2 * slot + 1] = sb[order]
     return opposite, sides
 
 
