@@ -20,7 +20,6 @@ import numpy as np
 
 from fabkit.errors import InputError
 from fabkit.mesh import MeshTopology, PolyMesh, faces_to_csr
-from fabkit.structure import crease_mask
 
 __all__ = ["FoldModel", "FoldFrame", "ASSIGNMENTS", "validate_fold_model", "default_assignment"]
 
@@ -232,6 +231,8 @@ def default_assignment(mesh: PolyMesh, edges_fold_angle: np.ndarray | None = Non
     interior edges with zero angle are `U` on the panel's creases (`fabkit.structure.crease_mask`:
     strip tags, or inferred from a folded mesh; a crease not folded yet) and `F` otherwise.
     """
+    from fabkit.structure import crease_mask  # here, so that reading a FOLD file does not import scipy
+
     E = mesh.n_edges
     angle = np.zeros(E) if edges_fold_angle is None else np.asarray(edges_fold_angle, dtype=np.float64)
     out = np.full(E, "F", dtype="<U1")
