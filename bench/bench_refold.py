@@ -44,7 +44,7 @@ def _run(flat, target, frames, solver, chord=True, hold=True):
     t0 = time.perf_counter()
     s = RefoldSolver(flat, target, solver=solver, chord=chord, hold_planar_quads=hold)
     driven, _ = s.driven_hinges("middle-row")
-    F, steps = build_schedule(s.panel, flat, driven, None, frames)
+    F, steps = build_schedule(s.panel, driven, None, frames)
     setup = time.perf_counter() - t0
     t0, c0 = time.perf_counter(), time.process_time()
     seq = s.solve(F, driven, steps, check_intersections=False)

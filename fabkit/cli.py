@@ -29,6 +29,7 @@ COMMANDS: dict[str, str] = {
     "demo": "run the whole pipeline on the built-in tri-fold panel",
     "generate": "procedural input meshes (trifold, reflect, ...)",
     "info": "measure a mesh or FOLD file (angle defect, planarity, tags) and validate it",
+    "tag": "write the panel structure (creases, strips, middle row) as editable # fabkit tags",
     "relax": "dynamic relaxation toward zero angle defect and planar faces",
     "unfold": "planar development with error metrics and cut files",
     "panels": "multi-panel workflow: panelise, relax, unfold, congruency, merge",

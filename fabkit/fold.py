@@ -228,18 +228,17 @@ class FoldModel:
 
 def default_assignment(mesh: PolyMesh, edges_fold_angle: np.ndarray | None = None) -> np.ndarray:
     """Assignments for `mesh.edges`: boundary `B`; interior `V`/`M` by the sign of the fold angle;
-    interior edges with zero angle are `U` where `face_data["strip"]` changes across them (a crease
-    not folded yet) and `F` otherwise.
+    interior edges with zero angle are `U` on the panel's creases (`fabkit.structure.crease_mask`:
+    strip tags, or inferred from a folded mesh; a crease not folded yet) and `F` otherwise.
     """
+    from fabkit.structure import crease_mask  # here, so that reading a FOLD file does not import scipy
+
     E = mesh.n_edges
     angle = np.zeros(E) if edges_fold_angle is None else np.asarray(edges_fold_angle, dtype=np.float64)
     out = np.full(E, "F", dtype="<U1")
     ef = mesh.edge_faces
     boundary = np.any(ef < 0, axis=1)
-    if "strip" in mesh.face_data:
-        strip = np.asarray(mesh.face_data["strip"])
-        crease = ~boundary & (strip[ef[:, 0]] != strip[ef[:, 1]])
-        out[crease] = "U"
+    out[crease_mask(mesh)] = "U"
     out[~boundary & (angle > 0)] = "V"
     out[~boundary & (angle < 0)] = "M"
     out[boundary] = "B"

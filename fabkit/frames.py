@@ -12,7 +12,8 @@ A face frame is a 4x4 pose in the panel frame (the frame the fold states are exp
 
 Faces may be polygons or triangles of a triangulated FOLD file: when `faces_data["polygon"]` maps
 each FOLD face to its polygon (as `fabkit refold` writes it), the triangles of one polygon form one
-face here and the polygon id is the face id. No robot knowledge lives here (layering: fabkit never
+face here and the polygon id is the face id. Files without middle-row tags get the middle row of
+the panel structure inferred from their last fold state (`structure_tags`). No robot knowledge lives here (layering: fabkit never
 imports robot/).
 """
 from __future__ import annotations
@@ -25,7 +26,8 @@ from fabkit.errors import InputError
 from fabkit.mesh import faces_to_csr
 
 __all__ = ["FaceGroups", "FaceFrames", "face_groups", "group_centroids_normals", "row_frames", "middle_row",
-           "middle_row_frames", "face_frames_of", "frames_from_axes", "fold_positions"]
+           "middle_row_frames", "face_frames_of", "frames_from_axes", "fold_positions", "structure_tags",
+           "face_motion", "check_grip_face_moves"]
 
 #: Directions shorter than this (m) are treated as undefined.
 _TINY = 1e-12
@@ -203,9 +205,55 @@ def fold_positions(model) -> np.ndarray:
     return np.stack([np.asarray(f.vertices_coords) for f in model.frames])
 
 
+def structure_tags(model) -> dict:
+    """The model's faces_data with the structure's strip/middle tags where the file has no middle
+    row: `fabkit.structure.panel_structure` of the last fold state (the folded geometry; strip tags
+    the file has are kept), so files from other tools get a middle row too."""
+    fd = dict(model.faces_data)
+    if "middle" in fd:
+        return fd
+    from fabkit.structure import panel_structure
+
+    mesh = model.frame_mesh(-1) if model.n_frames else model.mesh(validate=False)
+    s = panel_structure(mesh)
+    fd.update(strip=s.strip, middle=s.middle)
+    if "polygon" in fd:  # triangles of one polygon: the polygon is in the middle row if one of them is
+        poly = np.asarray(fd["polygon"])
+        mid = np.zeros(int(poly.max()) + 1, np.int64)
+        np.maximum.at(mid, poly, s.middle)
+        fd["middle"] = mid[poly]
+    return fd
+
+
+def face_motion(frames: FaceFrames, face_id: int) -> tuple[float, float]:
+    """(largest distance [m], largest turn [rad]) of a face's frame from its first state."""
+    T = frames.of_face(face_id)
+    C, Z = T[:, :3, 3], T[:, :3, 2]
+    turn = np.arccos(np.clip(np.einsum("si,i->s", Z, Z[0]), -1.0, 1.0))
+    return float(np.linalg.norm(C - C[0], axis=1).max()), float(turn.max())
+
+
+#: A grip face that moves less than this [m] and turns less than MOTIONLESS_RAD folds nothing (the
+#: clamped face of a relaxed noisy panel drifts by ~1e-6 m and 4e-5 rad: its quad is planar only to the
+#: relax tolerance, so its second triangle turns a little about the diagonal).
+MOTIONLESS_M, MOTIONLESS_RAD = 1e-4, 1e-3
+
+
+def check_grip_face_moves(frames: FaceFrames, face_id: int, source: str | None = None,
+                          clamped: int | None = None) -> None:
+    """Refuse (InputError) the clamped face (`clamped`, e.g. a refold file's `fabkit:fixed_face`) or a
+    grip face that does not move through the fold states: its program would fold nothing."""
+    dist, turn = face_motion(frames, face_id)
+    if face_id == clamped or (dist <= MOTIONLESS_M and turn <= MOTIONLESS_RAD):
+        raise InputError(f"face {face_id} does not move in the fold states (it is the clamped face: moved "
+                         f"{dist:.2g} m, turned {np.degrees(turn):.2g} deg); gripping it folds nothing",
+                         source=source or "--grip-face")
+
+
 def middle_row_frames(model, source: str | None = None) -> FaceFrames:
-    """Face frames of the middle row of a `fabkit.fold.FoldModel` in every fold state."""
-    groups = face_groups(model.faces_vertices, model.faces_data, source)
+    """Face frames of the middle row of a `fabkit.fold.FoldModel` in every fold state (the middle row
+    from the tags, or inferred: `structure_tags`)."""
+    groups = face_groups(model.faces_vertices, structure_tags(model), source)
     row = middle_row(groups, source)
     frames = row_frames(groups, fold_positions(model), row)
     return FaceFrames(faces=groups.ids[row], strips=groups.strip[row], frames=frames)

@@ -4,7 +4,8 @@ import pytest
 
 from fabkit.errors import InputError
 from fabkit.fold import FoldModel
-from fabkit.frames import face_frames_of, face_groups, middle_row, middle_row_frames, row_frames
+from fabkit.frames import (check_grip_face_moves, face_frames_of, face_groups, middle_row, middle_row_frames,
+                           row_frames)
 from fabkit.io.fold import load_fold, save_fold
 from fold_fixtures import folded_grid_model, grid_panel
 
@@ -119,3 +120,21 @@ def test_one_face_without_tags():
     np.testing.assert_allclose(ff.frames[0, 0, :3, 0], [1, 0, 0], atol=1e-15)
     with pytest.raises(InputError, match="face 99 does not exist"):
         face_frames_of(untagged, 99, source="x.fold")
+
+
+@pytest.mark.parametrize("triangulate", [False, True])
+def test_untagged_file_gets_the_inferred_middle_row(triangulate):
+    model = folded_grid_model(n_states=4, angles=[np.radians(40), np.radians(-30)], triangulate=triangulate)
+    tagged = middle_row_frames(model)
+    keep = {"polygon": model.faces_data["polygon"]} if triangulate else {}
+    import dataclasses
+
+    untagged = dataclasses.replace(model, faces_data=keep)
+    ff = middle_row_frames(untagged)
+    np.testing.assert_array_equal(ff.faces, tagged.faces)       # the middle column, by strip
+    np.testing.assert_allclose(ff.frames, tagged.frames, atol=1e-12)
+    check_grip_face_moves(ff, int(ff.faces[0]))
+    with pytest.raises(InputError, match="folds nothing"):
+        check_grip_face_moves(ff, int(ff.faces[1]))             # the clamped middle strip
+    with pytest.raises(InputError, match="clamped face"):
+        check_grip_face_moves(ff, int(ff.faces[0]), clamped=int(ff.faces[0]))

@@ -159,7 +159,7 @@ def test_cli_drive_file_and_steps(pair_files, tmp_path):
     from fabkit.refold.sequence import middle_row_hinges
 
     s = RefoldSolver(flat, target)
-    mid = middle_row_hinges(flat, s.panel)
+    mid = middle_row_hinges(s.panel)
     drive = tmp_path / "drive.json"
     drive.write_text(json.dumps([s.panel.edges[e].tolist() for e in mid]))
     out, rep = tmp_path / "a.fold", tmp_path / "a.json"
@@ -193,7 +193,7 @@ def test_cli_steps_from_a_json_schedule(pair_files, tmp_path):
     from fabkit.refold.sequence import middle_row_hinges
 
     s = RefoldSolver(flat, target)
-    mid = middle_row_hinges(flat, s.panel)
+    mid = middle_row_hinges(s.panel)
     sched = tmp_path / "schedule.json"
     sched.write_text(json.dumps([[s.panel.edges[mid[1]].tolist()], [s.panel.edges[mid[0]].tolist()]]))
     out, rep = tmp_path / "a.fold", tmp_path / "a.json"

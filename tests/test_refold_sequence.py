@@ -99,14 +99,14 @@ def test_drive_all_creases_and_steps():
 def test_custom_drive_file_with_vertex_pairs_and_steps(tmp_path):
     flat, target = reflect_pair(2, columns=6, rows=2)
     solver = RefoldSolver(flat, target)
-    mid = middle_row_hinges(flat, solver.panel)
+    mid = middle_row_hinges(solver.panel)
     pairs = [solver.panel.edges[e].tolist()[::-1] for e in mid]  # any vertex order
     f = tmp_path / "drive.json"
     f.write_text(json.dumps({"steps": [[pairs[0]], [pairs[1]]]}))
     driven, steps = load_drive_file(f, flat, solver.panel)
     np.testing.assert_array_equal(driven, np.sort(mid))
     assert [len(s) for s in steps] == [1, 1]
-    F, step_of_state = build_schedule(solver.panel, flat, driven, steps, 3)
+    F, step_of_state = build_schedule(solver.panel, driven, steps, 3)
     seq = solver.solve(F, driven, step_of_state)
     assert seq.converged.all() and seq.target_distance <= TOL_TARGET * seq.panel_size
     # polygon edge ids work too
@@ -177,22 +177,30 @@ def test_pair_and_flatness_checks():
         RefoldSolver(flat, target, fixed_face=10_000)
 
 
-def test_untagged_panel_needs_an_explicit_drive_and_overdriving_is_reported():
-    flat, target = reflect_pair(1, columns=6, rows=2)
+def test_untagged_panel_refolds_like_the_tagged_one_and_overdriving_is_reported():
+    flat, target = reflect_pair(1, columns=7, rows=2)
     bare_flat = PolyMesh(flat.vertices, flat.faces_list())
     bare_target = PolyMesh(target.vertices, target.faces_list())
+    tagged = RefoldSolver(flat, target)
     solver = RefoldSolver(bare_flat, bare_target)
-    with pytest.raises(InputError, match="no middle-row crease hinges"):
-        solver.driven_hinges("middle-row")
-    c = bare_flat.face_centroids
-    d = np.linalg.norm(c - bare_flat.vertices.mean(0), axis=1)
-    assert d[solver.fixed_face] == d.min()
-    # without strip tags every interior quad edge is a crease: driving them all linearly over-constrains a
-    # curved crease (no rigid fold has those angles), and the solver says so instead of returning junk
-    seq = refold(bare_flat, bare_target, frames=4, drive="all")
-    assert not seq.converged.all()
-    assert any("did not converge" in n for n in seq.notes)
-    assert seq.n_states < 4 and np.isnan(seq.target_distance)
+    assert solver.structure.source["creases"] == "inferred"
+    np.testing.assert_array_equal(solver.panel.edge_kind, tagged.panel.edge_kind)
+    d, notes = solver.driven_hinges("middle-row")
+    np.testing.assert_array_equal(d, tagged.driven_hinges("middle-row")[0])   # the odd middle column: no tie
+    assert solver.fixed_face == tagged.fixed_face and any("inferred" in n for n in notes)
+    assert_acceptance(refold(bare_flat, bare_target, frames=4))
+    # driving every crease and ruling linearly over-constrains a curved crease (no rigid fold has those
+    # angles): the converged states are kept and the failure names the worst hinge
+    every = np.flatnonzero((solver.panel.edge_kind == CREASE) | (solver.panel.edge_kind == 2))
+    seq = refold(bare_flat, bare_target, frames=4, drive=every)
+    assert not seq.complete and 1 <= seq.failed_state < 4 and seq.n_states == seq.failed_state
+    assert seq.converged.all() and seq.residual.max() <= TOL_STATE
+    assert re.search(r"worst hinge \(\d+, \d+\)", seq.failure) and seq.failure in seq.problems(1e-6)
+    assert np.isnan(seq.target_distance)
+    from fabkit.refold.export import to_fold_model
+
+    model = to_fold_model(seq)           # no NaN reaches the file, every written state converged
+    assert model.n_frames == seq.n_states and model.file_data["fabkit:failed_state"] == seq.failed_state
     # the straight crease untagged: drive all works and is exact
     f2, t2 = straight_crease_pair(40 * DEG)
     seq2 = refold(PolyMesh(f2.vertices, f2.faces_list()), PolyMesh(t2.vertices, t2.faces_list()), frames=3,
@@ -205,9 +213,9 @@ def test_schedule_needs_two_frames_and_every_driven_hinge_in_a_step():
     solver = RefoldSolver(flat, target)
     d, _ = solver.driven_hinges()
     with pytest.raises(InputError, match="at least 2 frames"):
-        build_schedule(solver.panel, flat, d, None, 1)
+        build_schedule(solver.panel, d, None, 1)
     with pytest.raises(InputError, match="in no step"):
-        build_schedule(solver.panel, flat, d, [d[:1]], 3)
+        build_schedule(solver.panel, d, [d[:1]], 3)
     with pytest.raises(InputError, match="creaseK or stripK"):
         refold(flat, target, steps="fold0")
     with pytest.raises(InputError, match="no driven crease hinges left"):
@@ -220,7 +228,7 @@ def test_newton_chord_and_full_newton_both_meet_acceptance():
     for chord in (True, False):
         s = RefoldSolver(flat, target, chord=chord)
         d, _ = s.driven_hinges()
-        F, st = build_schedule(s.panel, flat, d, None, 6)
+        F, st = build_schedule(s.panel, d, None, 6)
         seqs.append(s.solve(F, d, st))
         factorizations.append(s.linear_solver.factorizations)
         assert_acceptance(seqs[-1])
@@ -253,7 +261,7 @@ def test_planar_quads_stay_planar_and_freeing_their_diagonals_also_folds():
         diagonals = np.flatnonzero(s.panel.edge_kind == DIAGONAL)
         assert len(s.held) == (len(diagonals) if hold else 0)
         d, _ = s.driven_hinges()
-        F, st = build_schedule(s.panel, flat, d, None, 6)
+        F, st = build_schedule(s.panel, d, None, 6)
         seqs[hold] = seq = s.solve(F, d, st)
         assert_acceptance(seq)
         assert not seq.notes

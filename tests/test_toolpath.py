@@ -336,7 +336,7 @@ def test_cli_bad_cell_exit_2(seq_file, tmp_path, capsys):
     assert rc == 2 and f"{bad}: robot.model" in err and len(err.strip().splitlines()) == 1
 
 
-def test_cli_untagged_file_needs_a_grip_face(tmp_path, capsys):
+def test_cli_untagged_file_grips_an_inferred_middle_row_face(tmp_path, capsys):
     from fabkit.fold import FoldModel
 
     model = folded_grid_model(n_states=4, angles=[math.radians(30)] * 2)
@@ -345,10 +345,13 @@ def test_cli_untagged_file_needs_a_grip_face(tmp_path, capsys):
     seq = tmp_path / "untagged.fold"
     save_fold(untagged, seq)
     out = tmp_path / "p.json"
-    rc = fabkit_main(["toolpath", str(seq), "--cell", str(CELL_FILES[0]), "-o", str(out)])
-    assert rc == 2 and "no middle-row faces" in capsys.readouterr().err and not out.exists()
+    rc = fabkit_main(["toolpath", str(seq), "--cell", str(CELL_FILES[0]), "-o", str(out), "-q"])
+    assert rc == 0 and Toolpath.load(out).source["grip_face"] in (6, 8)   # the middle column's moving faces
     rc = fabkit_main(["toolpath", str(seq), "--cell", str(CELL_FILES[0]), "-o", str(out), "--grip-face", "8", "-q"])
     assert rc == 0 and Toolpath.load(out).source["grip_face"] == 8
+    out.unlink()
+    rc = fabkit_main(["toolpath", str(seq), "--cell", str(CELL_FILES[0]), "-o", str(out), "--grip-face", "7"])
+    assert rc == 2 and "folds nothing" in capsys.readouterr().err and not out.exists()
 
 
 def test_one_state_is_not_a_fold():

@@ -266,20 +266,12 @@ def run(args) -> int:
     report = {"preset": preset, "params": p, "output": str(args.output), "png": args.png, **s,
               "face_sizes": kinds, "tags": sorted(mesh.face_data) + sorted(mesh.vertex_data)}
     if "strip" in mesh.face_data:
-        d = measures.dihedral_angles(mesh)
-        st = mesh.face_data["strip"]
-        ef = mesh.edge_faces
-        inner = np.all(ef >= 0, axis=1)
-        a, b = st[np.maximum(ef[:, 0], 0)], st[np.maximum(ef[:, 1], 0)]
-        creases = []
-        for c in range(int(st.max())):
-            e = inner & (np.minimum(a, b) == c) & (a != b)
-            ang = np.degrees(d[e])
-            creases.append({"between_strips": [c, c + 1], "edges": int(e.sum()),
-                            "min_fold_deg": float(ang.min()) if len(ang) else None,
-                            "max_fold_deg": float(ang.max()) if len(ang) else None})
-        report["strips"] = int(st.max()) + 1
-        report["creases"] = creases
+        from fabkit.structure import panel_structure
+
+        structure = panel_structure(mesh)
+        report["strips"] = structure.n_strips
+        report["creases"] = [{k: c[k] for k in ("between_strips", "edges", "min_fold_deg", "max_fold_deg")}
+                             for c in structure.summary(mesh)["creases"]]
     write_report(args, report)
     say(args, f"{preset}: {s['vertices']} vertices, {s['faces']} faces "
               f"({', '.join(f'{c}x{k}-gon' for k, c in kinds.items())}) -> {args.output}")

@@ -19,6 +19,13 @@ far the fold angles stored for M/V creases are from the angles measured from the
 many creases bend against their M/V assignment, and the largest fold angle of the last state.
 Units inside are metres.
 
+The panel structure (fabkit.structure) is printed too, measured on the folded geometry (a FOLD
+file's last state, or --frame): creases per crease row with their M/V counts and fold-angle range,
+strips, the middle row, the clamp face and the grip candidates, and whether each part came from
+the '# fabkit' tags or was inferred from the geometry (a crease is a chain of edges from boundary to
+boundary along which the fold angle jumps against the bending beside it). 'fabkit tag' writes the
+inferred structure as tags you can edit.
+
 Exit codes: 0 ok; 2 bad file (one line naming the file and the problem; --report not written).
 
 Example:
@@ -80,7 +87,10 @@ def summarize(path: str, frame: int | None = None) -> dict:
         mesh, measured = _measured_mesh(model, frame, path)
     else:
         raise InputError(f"cannot read '{suffix or 'no suffix'}': fabkit info reads .obj and .fold", source=path)
+    from fabkit.structure import panel_structure
+
     s = measures.summary(mesh)
+    folded = mesh if model is None or frame is not None or not model.n_frames else model.frame_mesh(-1)
     report = {
         "format": "fabkit.info/1",
         "file": str(path),
@@ -102,6 +112,7 @@ def summarize(path: str, frame: int | None = None) -> dict:
         "vertex_tags": sorted(mesh.vertex_data),
         "unit": "m",
         "warnings": list(mesh.warnings),
+        "structure": panel_structure(folded).summary(folded),
     }
     if model is not None:
         report.update({
@@ -181,7 +192,27 @@ def _lines(r: dict) -> list[str]:
                        f"{r['frames_max_fold_angle_mismatch_deg']:.3g} deg; "
                        f"{r['frames_creases_bent_wrong_way']} crease-frame(s) bent against their assignment")
         out.extend(f"  note: {n}" for n in r["notes"])
+    out.extend(structure_lines(r["structure"]))
     out.extend(f"  warning: {w}" for w in r["warnings"])
+    return out
+
+
+def structure_lines(st: dict) -> list[str]:
+    """The panel structure summary (`PanelStructure.summary`) as indented lines."""
+    src = st["source"]
+    where = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in src.items())
+    n = len(st["creases"])
+    out = [f"  structure ({where}): {st['strips']} strip(s), {n} crease row(s), {st['crease_edges']} crease edges "
+           f"in {st['chains']} chain(s)" + (f", {st['columns']} columns" if st["columns"] else "")]
+    for c in st["creases"]:
+        mv = ", ".join(f"{k} {c[k]}" for k in "MVU" if c[k])
+        out.append(f"    crease {c['row']} (strips {c['between_strips'][0]}|{c['between_strips'][1]}): {c['edges']} "
+                   f"edges, {mv}, fold {c['min_fold_deg']:.2f}..{c['max_fold_deg']:.2f} deg")
+    out.append(f"    middle row: faces {st['middle_row']}; clamp face {st['clamp_face']}; "
+               f"grip candidates {st['grip_faces']}; driven creases {len(st['middle_creases'])}")
+    if st["noise_deg"] is not None:
+        out.append(f"    inferred: fold-angle noise {st['noise_deg']:.3g} deg, a crease jumps by more than "
+                   f"{st['strong_jump_deg']:.3g} deg")
     return out
 
 

@@ -156,30 +156,21 @@ def run(args) -> int:
             steps = steps if steps is not None else [driven]
         else:
             steps = parse_steps(args.steps, solver.panel, driven)
-    fractions, step_of_state = build_schedule(solver.panel, flat, driven, steps, args.frames)
+    fractions, step_of_state = build_schedule(solver.panel, driven, steps, args.frames)
     t0 = time.perf_counter()
     with progress(args, "refolding", total=len(fractions)) as advance:
         seq = solver.solve(fractions, driven, step_of_state, check_intersections=not args.no_intersections,
                            progress=advance, notes=notes)
     elapsed = time.perf_counter() - t0
 
-    problems = []
-    if not seq.converged.all():
-        problems.extend(n for n in seq.notes if "did not converge" in n)
+    problems = seq.problems(args.target_tol)
     rel = seq.target_distance / seq.panel_size if seq.panel_size > 0 else float("nan")
-    if seq.converged.all() and not rel <= args.target_tol:
-        problems.append(f"the last state is {seq.target_distance:.3g} m from TARGET ({rel:.3g} of the panel size, "
-                        f"tolerance {args.target_tol:g})")
-    bad_states = [int(s) for s in (seq.intersections > 0).nonzero()[0]]
-    if bad_states:
-        problems.append(f"faces pass through each other in {len(bad_states)} states (first: state {bad_states[0]}, "
-                        f"{int(seq.intersections[bad_states[0]])} triangle pairs)")
     summary = seq.summary()
     report.update({
         "ok": not problems, "problems": problems, "output": str(args.output),
         "outputs": {k: v for k, v in {"fold": args.output, "glb": args.glb, "png": args.png,
                                       "obj_dir": args.obj_dir}.items() if v},
-        "drive": args.drive, "steps": args.steps, "frames_per_step": args.frames,
+        "drive": args.drive, "steps": args.steps, "structure": solver.structure.summary(flat), "frames_per_step": args.frames,
         "driven_edges": seq.edges[seq.driven], "summary": summary, "seconds": elapsed,
         "notes": list(seq.notes), "length_tol": args.length_tol, "target_tol": args.target_tol,
         "max_relative_length_difference": solver.max_length_mismatch,

@@ -36,8 +36,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("-o", "--output", required=True, metavar="PATH.json", help="toolpath to write")
     parser.add_argument("--script", metavar="PROG.script", help="also write the URScript program")
     parser.add_argument("--grip-face", type=int, metavar="F",
-                        help="face id to grip (default: automatic among the middle-row faces; required when "
-                             "the file has no faces_fabkit:middle tags)")
+                        help="face id to grip (default: automatic among the middle-row faces, tagged or "
+                             "inferred from the last fold state; never the clamped face)")
     parser.add_argument("--approach", type=float, default=0.08, metavar="M",
                         help="approach/retract distance in front of the face [m] (default 0.08)")
     parser.add_argument("--standoff", type=float, default=0.0, metavar="M",
@@ -81,7 +81,7 @@ def _check_args(args) -> None:
 def run(args) -> int:
     from dataclasses import replace
 
-    from fabkit.frames import face_frames_of, middle_row_frames
+    from fabkit.frames import check_grip_face_moves, face_frames_of, middle_row_frames
     from fabkit.io.atomic import atomic_write
     from fabkit.io.fold import load_fold
     from robot.cell import load_cell
@@ -100,6 +100,8 @@ def run(args) -> int:
         frames = face_frames_of(model, args.grip_face, source=args.fold)  # untagged file: the face given
     else:
         frames = middle_row_frames(model, source=args.fold)
+    if args.grip_face is not None and args.grip_face in frames.faces.tolist():
+        check_grip_face_moves(frames, args.grip_face, clamped=model.file_data.get("fabkit:fixed_face"))
     digest = hashlib.sha256(Path(args.fold).read_bytes()).hexdigest()
     source = {"file": Path(args.fold).name, "sha256": digest, "states": int(frames.n_states)}
     options = PlanOptions(approach_distance=args.approach, grip_standoff=args.standoff,

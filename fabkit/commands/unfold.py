@@ -17,7 +17,9 @@ The error metrics are the paper's: mean and max of |l2D - l3D| / l3D over edges 
 
 Cut files are in millimetres: layers CUT (outline), MOUNTAIN and VALLEY (score lines), SCORE
 (creases whose sense is unknown: flat input) and LABEL. Creases are the edges between faces of
-different face_data "strip" when IN has strip tags, else edges folded by more than --crease-angle.
+different face_data "strip" when IN has strip tags, else inferred from the geometry (edges where the
+fold angle jumps against the bending beside them, along chains from boundary to boundary; see
+'fabkit info'); --crease-angle replaces the inference by a bare dihedral threshold.
 
 Exit codes: 0 ok; 1 a check failed (--max-error exceeded, flipped faces, a self-overlapping
 outline or a solver that did not converge: files are still written and the report says which);
@@ -43,8 +45,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--max-error", type=float, metavar="E",
                         help="fail (exit 1) when the max relative edge/diagonal length deviation exceeds E")
     parser.add_argument("--panel-id", metavar="ID", help="label written on the cut files (default: IN's name)")
-    parser.add_argument("--crease-angle", type=float, default=5.0, metavar="DEG",
-                        help="untagged panels: edges folded by more than this many degrees are creases (default 5)")
+    parser.add_argument("--crease-angle", type=float, default=None, metavar="DEG",
+                        help="untagged panels: edges folded by more than DEG are creases (default: inferred)")
     parser.add_argument("--label-edges", action="store_true", help="write boundary edge ids on the LABEL layer")
     add_common(parser)
 
@@ -64,7 +66,7 @@ def _check_args(args) -> None:
         raise InputError(f"must be a number >= 2, got {args.norm}", source="--norm")
     if args.norm != 2 and args.method != "isometric":
         raise InputError("only the isometric method has a spring-energy exponent", source="--norm")
-    if not (math.isfinite(args.crease_angle) and 0 < args.crease_angle < 180):
+    if args.crease_angle is not None and not (math.isfinite(args.crease_angle) and 0 < args.crease_angle < 180):
         raise InputError(f"must be in (0, 180) degrees, got {args.crease_angle}", source="--crease-angle")
     outputs = [p for p in (args.output, args.dxf, args.svg, args.png, args.report) if p]
     resolved = [Path(p).resolve() for p in outputs]
@@ -98,7 +100,7 @@ def run(args) -> int:
         except InputError as exc:
             raise exc.with_source(args.input) from None
     panel_id = args.panel_id if args.panel_id is not None else Path(args.input).stem
-    assignment = crease_assignment(mesh, np.radians(args.crease_angle))
+    assignment = crease_assignment(mesh, None if args.crease_angle is None else np.radians(args.crease_angle))
     pattern = cut_pattern(mesh, dev.uv, assignment, panel_id, label_edges=args.label_edges) \
         if (args.dxf or args.svg) else None
 

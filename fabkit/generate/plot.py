@@ -9,23 +9,12 @@ import numpy as np
 from fabkit import measures
 from fabkit.io.atomic import atomic_path
 from fabkit.mesh import PolyMesh
+from fabkit.structure import panel_structure
 
-__all__ = ["plot_generated", "crease_edge_mask"]
+__all__ = ["plot_generated"]
 
 STRIP_COLOURS = ("#9ecae1", "#fdd0a2", "#c7e9c0", "#dadaeb", "#fcbba1")
 MOUNTAIN, VALLEY = "#d62728", "#1f77b4"
-
-
-def crease_edge_mask(mesh: PolyMesh) -> np.ndarray:
-    """Interior edges whose two faces have different `face_data["strip"]` (all False without strips)."""
-    if "strip" not in mesh.face_data:
-        return np.zeros(mesh.n_edges, dtype=bool)
-    st = np.asarray(mesh.face_data["strip"])
-    ef = mesh.edge_faces
-    inner = np.all(ef >= 0, axis=1)
-    out = np.zeros(mesh.n_edges, dtype=bool)
-    out[inner] = st[ef[inner, 0]] != st[ef[inner, 1]]
-    return out
 
 
 def plot_generated(mesh: PolyMesh, path: str | os.PathLike, *, title: str = "", dpi: int = 110) -> None:
@@ -45,9 +34,9 @@ def plot_generated(mesh: PolyMesh, path: str | os.PathLike, *, title: str = "", 
         colours = [STRIP_COLOURS[int(s) % len(STRIP_COLOURS)] for s in st]
     else:
         colours = ["0.85"] * mesh.n_faces
-    crease = crease_edge_mask(mesh)
-    fold = measures.dihedral_angles(mesh)
-    crease_colours = np.where(fold[crease] < 0, MOUNTAIN, VALLEY)
+    structure = panel_structure(mesh)
+    crease = structure.crease
+    crease_colours = np.where(structure.fold_angle[crease] < 0, MOUNTAIN, VALLEY)
     has_uv = "uv" in mesh.vertex_data
     fig = Figure(figsize=(11.0 if has_uv else 6.5, 5.5))
     ax = fig.add_subplot(1, 2 if has_uv else 1, 1, projection="3d")

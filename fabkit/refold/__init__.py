@@ -21,6 +21,7 @@ from fabkit.refold.sequence import (FoldSequence, build_schedule, edge_kind_name
                                     parse_steps)
 from fabkit.refold.triangulate import BOUNDARY, CREASE, DIAGONAL, RULING, TriangulatedPanel, triangulate_panel
 from fabkit.refold.validate import NotAFoldError, check_flat, check_is_fold, check_pair
+from fabkit.structure import PanelStructure, pair_structure
 
 __all__ = ["RefoldSolver", "refold", "FoldSequence", "NotAFoldError", "SOLVERS", "DEFAULT_LENGTH_RTOL"]
 
@@ -37,12 +38,21 @@ FLAT_ANGLE = 1e-9
 PLANAR_QUAD_ANGLE = 1e-9
 
 
+def wrap_angles(rho: np.ndarray) -> np.ndarray:
+    """Angles in [-pi, pi] (a hinge turned by a whole turn is the same state; FOLD allows +-180 deg);
+    angles already inside are returned bit for bit."""
+    rho = np.asarray(rho, np.float64)
+    return np.where(np.abs(rho) > np.pi, (rho + np.pi) % (2 * np.pi) - np.pi, rho)
+
+
 class RefoldSolver:
     """Set up once for a FLAT/TARGET pair, then solve fold states for any schedule.
 
     flat: the crease pattern (z = 0, faces CCW from +z, tags strip/column/middle optional);
-    target: the same panel folded (same vertices and faces). fixed_face: polygon clamped at its flat
-    position (default: the middle-row face of the middle strip, else the face nearest the centroid).
+    target: the same panel folded (same vertices and faces). structure: the panel structure (default
+    `fabkit.structure.pair_structure(flat, target)`: tags of either, the rest inferred from TARGET's
+    geometry). fixed_face: polygon clamped at its flat position (default: the structure's clamp face,
+    the middle-row face of the middle strip).
     length_rtol: refuse (NotAFoldError) when an edge length differs by more (relative).
     solver: "direct" (sparse factorisation), "lsmr" (sparse iterative) or "dense" (pinv baseline).
     tol: loop-closure residual [rad] Newton must reach; chord: reuse a state's factorisation while
@@ -56,12 +66,13 @@ class RefoldSolver:
     def __init__(self, flat: PolyMesh, target: PolyMesh, *, fixed_face: int | None = None,
                  diagonal: str = "short", length_rtol: float = DEFAULT_LENGTH_RTOL, solver: str = "direct",
                  tol: float = DEFAULT_TOL, max_iter: int = 30, chord: bool = True, hold_planar_quads: bool = True,
-                 flat_name: str = "FLAT", target_name: str = "TARGET"):
+                 flat_name: str = "FLAT", target_name: str = "TARGET", structure: PanelStructure | None = None):
         if solver not in SOLVERS:
             raise ValueError(f"unknown solver {solver!r} ({', '.join(SOLVERS)})")
         check_pair(flat, target, flat_name, target_name)
         self.flat, self.target = flat, target
-        self.panel: TriangulatedPanel = triangulate_panel(flat, diagonal)
+        self.structure = pair_structure(flat, target) if structure is None else structure
+        self.panel: TriangulatedPanel = triangulate_panel(flat, diagonal, self.structure)
         check_flat(flat, self.panel.tris, flat_name)
         self.flat_vertices = np.array(flat.vertices)
         self.max_length_mismatch = check_is_fold(self.panel.topology, self.flat_vertices, np.asarray(target.vertices),
@@ -96,29 +107,20 @@ class RefoldSolver:
             if not 0 <= int(fixed_face) < F:
                 raise InputError(f"fixed face {fixed_face} does not exist (faces 0..{F - 1})", source="--fixed-face")
             return int(fixed_face)
-        fd = self.flat.face_data
-        if "middle" in fd:
-            mids = np.flatnonzero(np.asarray(fd["middle"]) != 0)
-            if len(mids):
-                if "strip" in fd:
-                    strips = np.asarray(fd["strip"])[mids]
-                    want = (int(strips.min()) + int(strips.max())) // 2
-                    mids = mids[np.argsort(np.abs(strips - want), kind="stable")]
-                return int(mids[0])
-        c = self.flat.face_centroids
-        return int(np.argmin(np.linalg.norm(c - self.flat_vertices[self.flat.topology.used_vertex_mask].mean(0),
-                                            axis=1)))
+        return int(self.structure.clamp_face)
 
     def driven_hinges(self, drive="middle-row") -> tuple[np.ndarray, list[str]]:
         """Hinge ids for `drive` ("middle-row", "all" or an array of hinge ids) and notes."""
         notes = []
         if isinstance(drive, str):
             if drive == "middle-row":
-                d = middle_row_hinges(self.flat, self.panel)
+                d = middle_row_hinges(self.panel)
                 if len(d) == 0:
-                    raise InputError("FLAT has no middle-row crease hinges (face_data 'middle' on the faces of a "
-                                     "column crossing the creases, and 'strip'); use --drive all or a drive file",
-                                     source="--drive")
+                    raise InputError("the panel has no creases to drive: none tagged (face_data 'strip') and none "
+                                     "found in TARGET's geometry; use a drive file", source="--drive")
+                if self.structure.source.get("middle_row") == "inferred":
+                    notes.append(f"driving the {len(d)} middle-column crease hinges found in TARGET's geometry "
+                                 f"(creases {self.structure.source['creases']}, middle row inferred)")
                 return d, notes
             if drive == "all":
                 d = np.flatnonzero(self.panel.edge_kind == CREASE)
@@ -209,12 +211,23 @@ class RefoldSolver:
         conv = np.ones(S, bool)
         inter = np.zeros(S, np.int64)
         rho = np.zeros(E)
+        failed, failure = -1, ""
         for s in range(S):
             if s > 0:
                 res, n_it, fallback = self._advance(angles[s - 1], ref[s - 1], ref[s], driven)
                 if fallback:
                     notes = tuple(notes) + (f"state {s}: {fallback}",)
-                rho = res.rho
+                if not res.converged:
+                    failed, failure = s, self.describe_failure(res.rho, ref[s], s, S)
+                    notes = tuple(notes) + (failure,)
+                    keep = s  # only the converged states are kept
+                    angles, positions, resid, elen, cmis, its, conv, inter = (
+                        x[:keep] for x in (angles, positions, resid, elen, cmis, its, conv, inter))
+                    fractions = fractions[:keep]
+                    if step_of_state is not None:
+                        step_of_state = step_of_state[:keep]
+                    break
+                rho = wrap_angles(res.rho)
                 its[s] = n_it
                 conv[s] = res.converged
             angles[s] = rho
@@ -227,16 +240,6 @@ class RefoldSolver:
                                                     neighbours=self.neighbour_keys))
             if progress is not None:
                 progress(1)
-            if not conv[s]:
-                notes = tuple(notes) + (f"Newton did not converge at state {s} (loop residual {resid[s]:.3g} rad); "
-                                        "later states were not computed",)
-                keep = s + 1
-                angles, positions, resid, elen, cmis, its, conv, inter = (
-                    x[:keep] for x in (angles, positions, resid, elen, cmis, its, conv, inter))
-                fractions = fractions[:keep]
-                if step_of_state is not None:
-                    step_of_state = step_of_state[:keep]
-                break
         step = np.asarray(step_of_state if step_of_state is not None else
                           np.where(np.arange(len(angles)) == 0, -1, 0), np.int64)
         return FoldSequence(
@@ -246,10 +249,29 @@ class RefoldSolver:
             fixed_face=self.fixed_face, fixed_triangle=self.fixed_triangle, fractions=fractions, angles=angles,
             positions=positions, step=step, residual=resid, edge_length_error=elen, corner_mismatch=cmis,
             newton_iterations=its, converged=conv, intersections=inter,
-            target_distance=self.target_distance(positions[-1]) if conv[-1] else float("nan"),
+            target_distance=self.target_distance(positions[-1]) if failed < 0 else float("nan"),
             panel_size=self.panel_size, face_data=self.triangle_face_data(),
             polygon_edge=np.array(self.panel.edge_poly_edge), edge_crease=np.array(self.panel.edge_crease),
-            notes=tuple(notes))
+            notes=tuple(notes), failed_state=failed, failure=failure)
+
+    def describe_failure(self, rho: np.ndarray, rho_ref: np.ndarray, state: int, n_states: int) -> str:
+        """One sentence on a state Newton could not reach: the vertex whose loop stays most open and,
+        around it, the hinge farthest from its scheduled angle (the worst hinge)."""
+        r, _ = loop_closure(self.loops, np.nan_to_num(rho, nan=0.0, posinf=0.0, neginf=0.0), jacobian=False)
+        norm = np.linalg.norm(r, axis=1) if len(r) else np.zeros(0)
+        where = ""
+        if len(norm):
+            k = int(np.argmax(np.nan_to_num(norm, nan=np.inf)))
+            around = self.loops.edge[k][self.loops.edge[k] >= 0]
+            dev = np.abs(np.nan_to_num(rho[around] - rho_ref[around], nan=np.inf))
+            h = int(around[int(np.argmax(dev))])
+            u, v = (int(x) for x in self.panel.edges[h])
+            kind = edge_kind_names(self.panel)[h]
+            where = (f" at vertex {int(self.loops.vertices[k])} (loop residual {norm[k]:.3g} rad); worst hinge "
+                     f"({u}, {v}), a {kind}, at {np.degrees(rho[h]):.4g} deg where the schedule asks "
+                     f"{np.degrees(rho_ref[h]):.4g} deg")
+        return (f"Newton did not converge at state {state} of {n_states - 1}{where}; states 0..{state - 1} are kept, "
+                "later states were not computed")
 
     def assignment(self, angles: np.ndarray) -> np.ndarray:
         """FOLD letters: B, J for diagonals, M/V by the target's sign (F when flat, U when a hinge
@@ -267,10 +289,11 @@ class RefoldSolver:
         return out
 
     def triangle_face_data(self) -> dict:
+        """Per triangle: its polygon and the structure's strip/column/middle tags (tagged or inferred),
+        so the FOLD file carries the structure the toolpath needs."""
         fd = {"polygon": self.panel.tri_face.copy()}
-        for name in ("strip", "column", "middle"):
-            if name in self.flat.face_data:
-                fd[name] = np.asarray(self.flat.face_data[name])[self.panel.tri_face]
+        for name, arr in self.structure.face_data().items():
+            fd[name] = np.asarray(arr)[self.panel.tri_face]
         return fd
 
 
@@ -288,6 +311,6 @@ def refold(flat: PolyMesh, target: PolyMesh, *, frames: int = 20, drive="middle-
     driven, notes = solver_.driven_hinges(drive)
     if isinstance(steps, str):
         steps = parse_steps(steps, solver_.panel, driven)
-    F, step_of_state = build_schedule(solver_.panel, flat, driven, steps, int(frames))
+    F, step_of_state = build_schedule(solver_.panel, driven, steps, int(frames))
     return solver_.solve(F, driven, step_of_state, check_intersections=check_intersections, progress=progress,
                          notes=notes)

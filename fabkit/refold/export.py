@@ -7,6 +7,9 @@ to the quads: `faces_fabkit:polygon` (the quad of each triangle), `faces_fabkit:
 `edges_fabkit:kind` (0 boundary, 1 crease, 2 ruling, 3 diagonal), `edges_fabkit:driven`,
 `edges_fabkit:polygon_edge` (-1 for diagonals), `edges_fabkit:crease` (crease row, -1 off creases). Per frame: `frame_fabkit:state`, `frame_fabkit:step`,
 `frame_fabkit:loop_residual_rad`, `frame_fabkit:edge_length_error`, `frame_fabkit:intersections`.
+File: `file_fabkit:fixed_face`, `file_fabkit:fixed_triangle`, `file_fabkit:target_distance_m` (when the
+last scheduled state was reached), else `file_fabkit:failed_state` and `file_fabkit:failure`. Only
+converged states are written.
 """
 from __future__ import annotations
 
@@ -47,8 +50,12 @@ def to_fold_model(seq: FoldSequence, *, title: str = "", file_data: dict | None 
             "fabkit:edge_length_error": float(seq.edge_length_error[s]),
             "fabkit:intersections": int(seq.intersections[s]),
         }))
-    fd = {"fabkit:fixed_face": int(seq.fixed_face), "fabkit:fixed_triangle": int(seq.fixed_triangle),
-          "fabkit:target_distance_m": float(seq.target_distance)}
+    fd = {"fabkit:fixed_face": int(seq.fixed_face), "fabkit:fixed_triangle": int(seq.fixed_triangle)}
+    if np.isfinite(seq.target_distance):  # NaN when a state did not converge: the file says so instead
+        fd["fabkit:target_distance_m"] = float(seq.target_distance)
+    if not seq.complete:
+        fd["fabkit:failed_state"] = int(seq.failed_state)
+        fd["fabkit:failure"] = seq.failure
     fd.update(file_data or {})
     return FoldModel.from_mesh(mesh, seq.edges_assignment, seq.target_angles, frames=frames, edges_data=edges_data,
                                file_data=fd, title=title, attributes=("2D",))

@@ -7,8 +7,8 @@ rigid fold and the last state, where every fraction is 1, is the target.
 
 Steps fold groups of driven hinges one after another. A free hinge follows the driven hinges
 nearest to it: a non-driven crease hinge follows the driven hinges of its own crease row; a ruling
-or diagonal in strip k follows the mean of the creases bounding strip k; without strip tags every
-free hinge follows the mean of the driven fractions.
+or diagonal in strip k follows the mean of the creases bounding strip k; on a panel without creases
+every free hinge follows the mean of the driven fractions.
 """
 from __future__ import annotations
 
@@ -41,7 +41,9 @@ class FoldSequence:
     face; `panel_size` [m] (bounding-box diagonal of the flat pattern). `face_data` per triangle
     (`polygon` and the quads' strip/column/middle tags); `polygon_edge` (E,) FLAT's edge id of each
     hinge (-1 for diagonals); `edge_crease` (E,) crease row k (between strips k and k+1) of crease
-    hinges, -1 otherwise; `notes` remarks (fallbacks, non-convergence).
+    hinges, -1 otherwise; `notes` remarks (fallbacks, non-convergence). Only converged states are kept:
+    `failed_state` is the first scheduled state Newton could not reach (-1: none, `complete`) and
+    `failure` says where (the worst hinge).
     """
 
     flat_vertices: np.ndarray
@@ -70,10 +72,32 @@ class FoldSequence:
     polygon_edge: np.ndarray | None = None
     edge_crease: np.ndarray | None = None
     notes: tuple = ()
+    failed_state: int = -1
+    failure: str = ""
+
+    @property
+    def complete(self) -> bool:
+        """Did every scheduled state converge (so the last state is the target)?"""
+        return self.failed_state < 0
 
     @property
     def n_states(self) -> int:
         return len(self.angles)
+
+    def problems(self, target_rtol: float) -> list[str]:
+        """The verdicts (empty when the sequence is good): a state that did not converge (naming the
+        worst hinge), a last state farther than `target_rtol` x the panel size from the target, faces
+        passing through each other."""
+        out = [] if self.complete else [self.failure]
+        rel = self.target_distance / self.panel_size if self.panel_size > 0 else float("nan")
+        if self.complete and not rel <= target_rtol:
+            out.append(f"the last state is {self.target_distance:.3g} m from TARGET ({rel:.3g} of the panel size, "
+                       f"tolerance {target_rtol:g})")
+        bad = np.flatnonzero(self.intersections > 0)
+        if len(bad):
+            out.append(f"faces pass through each other in {len(bad)} states (first: state {int(bad[0])}, "
+                       f"{int(self.intersections[bad[0]])} triangle pairs)")
+        return out
 
     def summary(self) -> dict:
         """Headline numbers (JSON-ready)."""
@@ -87,37 +111,21 @@ class FoldSequence:
             "max_edge_length_error_rel": float(np.max(self.edge_length_error)),
             "max_corner_mismatch_m": float(np.max(self.corner_mismatch)),
             "target_distance_m": self.target_distance,
-            "target_distance_rel": self.target_distance / self.panel_size,
+            "target_distance_rel": self.target_distance / self.panel_size if self.panel_size > 0 else float("nan"),
             "panel_size_m": self.panel_size,
             "newton_iterations_max": int(np.max(self.newton_iterations)),
             "newton_iterations_mean": float(np.mean(self.newton_iterations[1:])) if self.n_states > 1 else 0.0,
-            "all_converged": bool(np.all(self.converged)),
+            "all_converged": bool(self.complete),
+            "failed_state": self.failed_state if self.failed_state >= 0 else None,
             "states_with_intersections": int(np.sum(self.intersections > 0)),
         }
 
 
-def middle_row_hinges(flat: PolyMesh, panel: TriangulatedPanel) -> np.ndarray:
-    """Crease hinges of the middle row (`face_data["middle"]`): the paper's driven angles.
-
-    The middle row is the column of faces holding the tagged middle faces (one per strip); its
-    crease hinges are the crease edges whose two faces both lie in that column. Without a `column`
-    tag, the crease hinges touching a middle face. Empty when the mesh has no `middle` tag.
-    """
-    middle = flat.face_data.get("middle")
-    if middle is None:
-        return np.zeros(0, np.int64)
-    middle = np.asarray(middle) != 0
-    ef = panel.topology.edge_faces
-    crease = np.flatnonzero(panel.edge_kind == CREASE)
-    fa, fb = panel.tri_face[ef[crease, 0]], panel.tri_face[ef[crease, 1]]
-    column = flat.face_data.get("column")
-    if column is not None:
-        column = np.asarray(column)
-        cols = np.unique(column[middle])
-        keep = np.isin(column[fa], cols) & np.isin(column[fb], cols) & (column[fa] == column[fb])
-    else:
-        keep = middle[fa] | middle[fb]
-    return crease[keep]
+def middle_row_hinges(panel: TriangulatedPanel) -> np.ndarray:
+    """Crease hinges of the middle column (the paper's driven angles): `panel.middle_hinges`, from the
+    panel structure (`fabkit.structure`: the middle-row tags, or the middle row inferred from the
+    geometry). Empty when the panel has no crease."""
+    return np.asarray(panel.middle_hinges, np.int64)
 
 
 def resolve_edge_refs(refs, flat: PolyMesh, panel: TriangulatedPanel, source: str) -> np.ndarray:
@@ -201,7 +209,7 @@ def parse_steps(text: str, panel: TriangulatedPanel, driven: np.ndarray) -> list
         if name not in ("crease", "strip") or not num:
             raise InputError(f"step '{token}' is not creaseK or stripK", source="--steps")
         if not has_rows:
-            raise InputError("named steps need strip tags (face_data 'strip'); use a JSON schedule file",
+            raise InputError("named steps need creases (the panel has none); use a JSON schedule file",
                              source="--steps")
         k = int(num)
         rows = [k] if name == "crease" else [k - 1, k]
@@ -216,7 +224,7 @@ def parse_steps(text: str, panel: TriangulatedPanel, driven: np.ndarray) -> list
     return groups
 
 
-def build_schedule(panel: TriangulatedPanel, flat: PolyMesh, driven: np.ndarray,
+def build_schedule(panel: TriangulatedPanel, driven: np.ndarray,
                    steps: list[np.ndarray] | None, frames: int) -> tuple[np.ndarray, np.ndarray]:
     """Fractions `(S, E)` and the step of each state; S = 1 + n_steps * (frames - 1).
 
@@ -252,15 +260,14 @@ def build_schedule(panel: TriangulatedPanel, flat: PolyMesh, driven: np.ndarray,
     mean_all = F[:, driven_mask].mean(axis=1)
     free = np.flatnonzero(~driven_mask & panel.hinge_mask)
     F[:, free] = mean_all[:, None]
-    if np.any(panel.edge_crease >= 0) and "strip" in flat.face_data:
+    if np.any(panel.edge_crease >= 0):
         rows_max = int(panel.edge_crease.max())
         row_frac = np.full((len(F), rows_max + 1), np.nan)
         for r in range(rows_max + 1):
             d = driven_mask & (panel.edge_crease == r)
             if d.any():
                 row_frac[:, r] = F[:, d].mean(axis=1)
-        strip = np.asarray(flat.face_data["strip"])
-        face_strip = strip[panel.tri_face[np.maximum(panel.topology.edge_faces[:, 0], 0)]]
+        face_strip = panel.face_strip[panel.tri_face[np.maximum(panel.topology.edge_faces[:, 0], 0)]]
         # candidate crease rows per free hinge: its own row, or the two rows bounding its strip
         r = panel.edge_crease[free]
         cand = np.where((r >= 0)[:, None], np.stack([r, r], axis=1),

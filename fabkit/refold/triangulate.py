@@ -6,9 +6,9 @@ the target quad is planar). Each triangle edge is classified once here:
 
 - ``diagonal``: both triangles come from the same polygon (FOLD ``J``);
 - ``boundary``: one triangle only (FOLD ``B``);
-- ``crease``: between faces of different strips (`face_data["strip"]`); without strip tags every
-  interior polygon edge counts as a crease;
-- ``ruling``: between faces of the same strip (the bending hinges of a developable strip).
+- ``crease``: a crease of the panel (`fabkit.structure.PanelStructure.crease`: strip tags, or inferred
+  from the folded target);
+- ``ruling``: any other polygon edge (the bending hinges of a developable strip).
 """
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ import numpy as np
 
 from fabkit.errors import InputError
 from fabkit.mesh import MeshTopology, PolyMesh
+from fabkit.structure import PanelStructure, panel_structure
 
 __all__ = ["TriangulatedPanel", "triangulate_panel", "EDGE_KINDS"]
 
@@ -34,7 +35,8 @@ class TriangulatedPanel:
     `edge_poly_edge` (E,) the polygon mesh's edge id with the same vertex pair (-1 for diagonals);
     `edge_crease` (E,) crease row = the lower of the two strips for crease edges, else -1;
     `edge_column` (E,) the `column` tag of the edge's faces where both agree (rulings between
-    columns take the lower column), -1 without tags.
+    columns take the lower column), -1 without columns; `face_strip` (F,) the strip of each polygon;
+    `middle_hinges` the crease hinges of the middle column (the paper's driven hinges).
     """
 
     tris: np.ndarray
@@ -44,6 +46,8 @@ class TriangulatedPanel:
     edge_poly_edge: np.ndarray
     edge_crease: np.ndarray
     edge_column: np.ndarray
+    face_strip: np.ndarray
+    middle_hinges: np.ndarray
 
     @property
     def n_tris(self) -> int:
@@ -72,11 +76,15 @@ def _quad_split(V: np.ndarray, quads: np.ndarray, diagonal: str) -> np.ndarray:
     return d13 < d02 * (1.0 - 1e-12)  # ties keep 0-2, so the choice is deterministic
 
 
-def triangulate_panel(mesh: PolyMesh, diagonal: str = "short") -> TriangulatedPanel:
+def triangulate_panel(mesh: PolyMesh, diagonal: str = "short",
+                      structure: PanelStructure | None = None) -> TriangulatedPanel:
     """Split quads along a diagonal (the shorter one in `mesh` by default) and fan larger polygons.
 
     Pass the flat pattern as `mesh`: the diagonal choice then depends only on the cut file.
+    `structure` (of the same faces; default `panel_structure(mesh)`) says which edges are creases.
     """
+    if structure is None:
+        structure = panel_structure(mesh)
     t = mesh.topology
     sizes = t.face_sizes
     tris_parts, face_parts = [], []
@@ -107,28 +115,22 @@ def triangulate_panel(mesh: PolyMesh, diagonal: str = "short") -> TriangulatedPa
     fr = np.where(ef[:, 1] >= 0, tri_face[np.maximum(ef[:, 1], 0)], -1)
     diag = ~boundary & (fl == fr)
     kind = np.full(E, RULING, np.int64)
-    strip = mesh.face_data.get("strip")
-    column = mesh.face_data.get("column")
-    if strip is not None:
-        strip = np.asarray(strip, np.int64)
-        crease = ~boundary & ~diag & (strip[np.maximum(fl, 0)] != strip[np.maximum(fr, 0)])
-    else:
-        crease = ~boundary & ~diag
+    column = structure.column
+    # map to the polygon mesh's edges (same sorted vertex pair)
+    poly_edge = t.edge_ids(topo.edges)
+    pe = np.maximum(poly_edge, 0)
+    crease = ~boundary & ~diag & (poly_edge >= 0) & structure.crease[pe]
     kind[crease] = CREASE
     kind[diag] = DIAGONAL
     kind[boundary] = BOUNDARY
-    edge_crease = np.full(E, -1, np.int64)
-    if strip is not None:
-        edge_crease[crease] = np.minimum(strip[fl[crease]], strip[fr[crease]])
+    edge_crease = np.where(crease, structure.crease_row[pe], -1).astype(np.int64)
     edge_column = np.full(E, -1, np.int64)
     if column is not None:
         column = np.asarray(column, np.int64)
         f0 = np.where(fl >= 0, fl, fr)
         f1 = np.where(fr >= 0, fr, fl)
         edge_column = np.minimum(column[f0], column[f1])
-
-    # map to the polygon mesh's edges (same sorted vertex pair)
-    poly_edge = t.edge_ids(topo.edges)
+    middle = np.flatnonzero(crease & np.isin(poly_edge, structure.middle_creases))
     found = poly_edge >= 0
     if np.any(found == diag):
         e = int(np.flatnonzero(found == diag)[0])
@@ -136,4 +138,5 @@ def triangulate_panel(mesh: PolyMesh, diagonal: str = "short") -> TriangulatedPa
                          "(two polygons share a diagonal's vertex pair)")
     return TriangulatedPanel(tris=tris, tri_face=tri_face, topology=topo, edge_kind=kind,
                              edge_poly_edge=poly_edge.astype(np.int64), edge_crease=edge_crease,
-                             edge_column=edge_column)
+                             edge_column=edge_column, face_strip=np.asarray(structure.strip, np.int64),
+                             middle_hinges=middle)

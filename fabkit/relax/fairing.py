@@ -35,7 +35,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from fabkit.cutfiles.creases import chain_edges, crease_assignment
+from fabkit.structure import chain_edges, crease_mask
 from fabkit.mesh import PolyMesh
 from fabkit.relax.dynamic import PhaseOutcome
 from fabkit.relax.energy import EnergyModel, Evaluation
@@ -55,14 +55,13 @@ REFERENCE_SEGMENTS = 12
 def crease_chains(mesh: PolyMesh, kink_angle: float = KINK_ANGLE) -> list[np.ndarray]:
     """Crease polylines of `mesh` as vertex-id arrays in order (closed loops repeat their first vertex).
 
-    Creases come from `fabkit.cutfiles.crease_assignment`: edges between faces of different
-    `face_data["strip"]`, or without strip tags interior edges folded by more than 5°. Chains break
+    Creases come from `fabkit.structure.crease_mask`: edges between faces of different
+    `face_data["strip"]`, or without strip tags the creases inferred from the geometry. Chains break
     at junctions (vertices where more or fewer than two crease edges meet) and at kinks, where the
     polyline turns by more than `kink_angle` in `mesh` (a deliberate corner, not noise: σ = 3 % noise
     turns a straight crease by about 5°), so fairing never rounds a corner off.
     """
-    ca = crease_assignment(mesh)
-    edges = mesh.edges[np.flatnonzero(np.isin(ca.edges_assignment, ("M", "V", "U")))]
+    edges = mesh.edges[crease_mask(mesh)]
     if not len(edges):
         return []
     V = mesh.vertices

@@ -44,7 +44,7 @@ class RelaxOptions:
         meet the tolerances, the one closest to the input with the smoothest crease curves (third
         differences, weight scaled with the crease resolution) is sought (fabkit.relax.fairing). Removes
         the noise a least-squares relaxation leaves in the creases and so in the fold angles; creases
-        come from face_data "strip" or, untagged, edges folded by more than 5°, and stop at corners
+        come from face_data "strip" or, untagged, are inferred (fabkit.structure), and stop at corners
         turning by more than 30°. An input already within tolerance is left as it is.
     """
 

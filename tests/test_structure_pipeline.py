@@ -1,0 +1,97 @@
+"""Plain OBJ panels as a designer brings them (no tags, shuffled, noisy, triangulated) go through
+relax -> unfold -> refold -> toolpath with no tags, drive files or grip faces; score lines in the cut
+file are exactly the crease edges; the clamped face is never gripped."""
+import json
+
+import ezdxf
+import numpy as np
+import pytest
+
+from fabkit.cli import main
+from fabkit.io.fold import load_fold
+from fabkit.io.obj import load_obj, save_obj
+from structure_panels import noisy, plain, reflect_tagged, shuffled, triangulated, true_creases
+
+from pathlib import Path
+
+CELL = str(Path(__file__).resolve().parent.parent / "cells" / "ur5e_bench.toml")
+
+
+def _user_mesh(tagged, variant):
+    """(mesh as the user has it, new id of each tagged vertex)."""
+    m = plain(tagged)
+    ids = np.arange(m.n_vertices)
+    if "shuffled" in variant:
+        m, ids, _ = shuffled(m, seed=3)
+    if "noisy" in variant:
+        m = noisy(m, 0.01, seed=1)
+    if "tri" in variant:
+        m = triangulated(m)
+    return m, ids
+
+
+def _score_segments(dxf_path, flat):
+    """Score-line segments of the DXF as sorted flat-vertex pairs, per layer."""
+    msp = ezdxf.readfile(dxf_path).modelspace()
+    uv = flat.vertices[:, :2] * 1000.0
+    out = {}
+    for layer in ("MOUNTAIN", "VALLEY", "SCORE"):
+        segs = set()
+        for pl in msp.query(f'LWPOLYLINE[layer=="{layer}"]'):
+            pts = np.array([p[:2] for p in pl.get_points("xy")])
+            d = np.linalg.norm(pts[:, None] - uv[None], axis=2)
+            assert d.min(axis=1).max() <= 1e-6           # every point is a vertex of the pattern
+            v = d.argmin(axis=1)
+            if pl.closed:
+                v = np.append(v, v[0])
+            segs |= {tuple(sorted(p)) for p in zip(v[:-1].tolist(), v[1:].tolist())}
+        out[layer] = segs
+    return out
+
+
+def _pipeline(tmp_path, tagged, variant):
+    mesh, ids = _user_mesh(tagged, variant)
+    p = tmp_path / "panel.obj"
+    save_obj(mesh, p)
+    assert "# fabkit face_data" not in p.read_text()
+    rel, flat, seq, path = (tmp_path / n for n in ("rel.obj", "flat.obj", "seq.fold", "path.json"))
+    assert main(["relax", str(p), "-o", str(rel), "-q"]) == 0
+    assert main(["unfold", str(rel), "-o", str(flat), "--dxf", str(tmp_path / "cut.dxf"), "-q"]) == 0
+    rr = tmp_path / "refold.json"
+    assert main(["refold", str(flat), str(rel), "-o", str(seq), "--frames", "5", "--report", str(rr), "-q"]) == 0
+    tr = tmp_path / "toolpath.json"
+    assert main(["toolpath", str(seq), "--cell", CELL, "-o", str(path), "--report", str(tr), "-q"]) == 0
+    truth = true_creases(tagged)
+    ef = tagged.edge_faces[truth]
+    row = np.minimum(tagged.face_data["strip"][ef[:, 0]], tagged.face_data["strip"][ef[:, 1]])
+    want = {"V": set(), "M": set()}
+    for (a, b), r in zip(tagged.edges[truth].tolist(), row.tolist()):
+        want["V" if r == 0 else "M"].add(tuple(sorted((int(ids[a]), int(ids[b])))))
+    segs = _score_segments(tmp_path / "cut.dxf", load_obj(flat))
+    assert segs["VALLEY"] == want["V"] and segs["MOUNTAIN"] == want["M"] and not segs["SCORE"]
+    refold_report = json.loads(rr.read_text())
+    assert refold_report["ok"] and refold_report["structure"]["source"]["creases"] == "inferred"
+    n_creases = len(set(row.tolist()))
+    assert len(refold_report["driven_edges"]) == n_creases       # one middle-column hinge per crease
+    assert refold_report["summary"]["target_distance_rel"] <= 1e-6
+    assert refold_report["summary"]["max_edge_length_error_rel"] <= 1e-9
+    model = load_fold(seq)
+    fixed = int(model.file_data["fabkit:fixed_face"])
+    grip = json.loads(tr.read_text())["grip_face"]
+    assert grip != fixed
+    return seq, fixed
+
+
+@pytest.mark.parametrize("n,fold,variant", [(2, 120.0, "shuffled+noisy")])
+def test_plain_panel_goes_through_every_stage(tmp_path, n, fold, variant):
+    seq, fixed = _pipeline(tmp_path, reflect_tagged(n, fold), variant)
+    # the clamped face as grip face: a program that folds nothing is refused
+    rc = main(["toolpath", str(seq), "--cell", CELL, "-o", str(tmp_path / "p2.json"), "--grip-face", str(fixed), "-q"])
+    assert rc == 2 and not (tmp_path / "p2.json").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n,fold,variant", [(1, 30.0, "noisy"), (1, 175.0, "shuffled"), (2, 175.0, "plain"),
+                                            (2, 60.0, "tri"), (1, 90.0, "shuffled+tri")])
+def test_plain_panels_all_variants(tmp_path, n, fold, variant):
+    _pipeline(tmp_path, reflect_tagged(n, fold), variant)
