@@ -131,7 +131,9 @@ def _finish(path: str, fmt: str, V, faces, face_data, vertex_data, unit: str, ho
         face_data = {k: np.asarray(a)[first] for k, a in face_data.items() if k != "assignment"}
         faces = m.faces
     if sides is not None:
-        face_data = {**face_data, **side_assignments(faces, sides)}
+        tags = side_assignments(faces, sides)
+        face_data = {**tags, **face_data} if "strip" in face_data else {**face_data, **tags}
+        face_data["assignment"] = tags["assignment"]
     try:
         mesh = PolyMesh(V, faces, face_data=face_data, vertex_data=vertex_data, validate=False)
         mesh.warnings = validate_mesh(mesh, source=path)
@@ -252,7 +254,7 @@ def load_panel(path: str | os.PathLike, units: str | None = None, state: str = "
             V = model.frames[i].vertices_coords
             chosen = f"frame {model.n_frames if i == -1 else 1} of {model.n_frames}"
             others = [model.vertices_coords]
-        notes = list(info.notes) + [f"geometry of the {chosen}"]
+        notes = list(info.notes)
         face_data = dict(model.faces_data)
         face_data.pop("polygon", None)  # the triangle -> polygon map no longer applies once re-merged
         faces = [list(f) for f in model.faces_vertices]

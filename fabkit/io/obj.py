@@ -10,7 +10,9 @@ merges and triangulates by default) and none keeps our per-face tags. What we ke
       # fabkit face_data strip int64 [0, 0, 1, 1]
       # fabkit vertex_data pinned bool [true, false, ...]
 
-  (`<kind> <name> <numpy dtype> <JSON array>`).
+  (`<kind> <name> <numpy dtype> <JSON array>`);
+- the unit of the coordinates as `# fabkit unit m` (fabkit always writes metres; `fabkit.io.load`
+  reads the line, so a file scaled to metres once is not scaled again).
 
 What we read: `v` (extra values such as w or colours ignored), `f` with `v`, `v/vt`, `v//vn`,
 `v/vt/vn` corners and negative (relative) indices, line continuations (`\\`), inline comments; texture,
@@ -225,7 +227,8 @@ def _data_line(kind: str, name: str, arr: np.ndarray) -> str:
 
 def format_obj(mesh: PolyMesh, header: str | None = None) -> str:
     """The OBJ text of a mesh (see module docstring)."""
-    out = ["# fabkit OBJ: faces and vertex order as in the model; '# fabkit' lines carry per-element data\n"]
+    out = ["# fabkit OBJ: faces and vertex order as in the model; '# fabkit' lines carry per-element data\n",
+           "# fabkit unit m\n"]
     if header:
         out.extend(f"# {line}\n" for line in header.splitlines())
     out.extend(f"v {x!r} {y!r} {z!r}\n" for x, y, z in mesh.vertices.tolist())
