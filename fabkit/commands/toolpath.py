@@ -31,6 +31,9 @@ Example:
 
 def add_arguments(parser) -> None:
     parser.add_argument("fold", metavar="SEQ.fold", help="fold sequence (FOLD file with fold states as frames)")
+    from fabkit.commands._loading import add_units
+
+    add_units(parser)
     parser.add_argument("--cell", required=True, metavar="CELL.toml", help="robot cell description")
     parser.add_argument("-o", "--output", required=True, metavar="PATH.json", help="toolpath to write")
     parser.add_argument("--script", metavar="PROG.script", help="also write the URScript program")
@@ -74,7 +77,7 @@ def run(args) -> int:
 
     from fabkit.frames import face_frames_of, middle_row_frames
     from fabkit.io.atomic import atomic_write
-    from fabkit.io.fold import load_fold
+    from fabkit.commands._loading import load_fold_for
     from robot.cell import load_cell
     from robot.motion import MotionParams
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
@@ -82,7 +85,7 @@ def run(args) -> int:
 
     _check_args(args)
     cell = load_cell(args.cell)
-    model = load_fold(args.fold)
+    model, _ = load_fold_for(args, args.fold)
     if model.n_frames == 0:
         raise InputError("has no fold states (no file_frames)", source=args.fold)
     if args.grip_face is not None and "middle" not in model.faces_data:
