@@ -226,13 +226,15 @@ def _dimension(V: np.ndarray) -> str:
 
 def _attributes(declared: tuple, V: np.ndarray, assignment: np.ndarray) -> list[str]:
     """`frame_attributes` that match the content: the dimension measured from the coordinates (2D
-    when every z is 0), cuts/joins from the assignments written; other declared attributes kept."""
-    measured = {_dimension(V)}
-    if len(assignment):
-        measured.add("cuts" if np.any(assignment == "C") else "noCuts")
-        measured.add("joins" if np.any(assignment == "J") else "noJoins")
+    when every z is 0), `cuts` / `joins` when C / J edges are written; other declared attributes kept
+    (declared 2D/3D/cuts/joins are replaced by what was measured)."""
+    measured = [_dimension(V)]
+    if np.any(assignment == "C"):
+        measured.append("cuts")
+    if np.any(assignment == "J"):
+        measured.append("joins")
     replaced = {"2D", "3D", "cuts", "noCuts", "joins", "noJoins"}
-    return [a for a in declared if a not in replaced] + sorted(measured)
+    return measured + [a for a in declared if a not in replaced]
 
 
 def _fold_parts(model: FoldModel, flavour: str = "compatible") -> dict[str, Any]:
@@ -533,8 +535,9 @@ def _rotate(V: np.ndarray, R: np.ndarray) -> np.ndarray:
 def parse_fold(d: Any, source: str = "<fold>", *, repair: bool = False) -> FoldModel:
     """A FOLD dictionary (as loaded from JSON) -> validated `FoldModel` in metres/radians.
 
-    `repair`: faces wound against their neighbours or clockwise in a flat crease pattern are turned
-    (`fabkit.io.hygiene.orient`, said in `notes`) instead of refused."""
+    `repair`: a minority of faces wound against the rest is turned (`fabkit.io.hygiene.orient`, said
+    in `notes`) instead of refused; a crease pattern wound clockwise throughout is still refused (its
+    M/V could be meant from either side)."""
     if not isinstance(d, dict):
         raise InputError(f"a FOLD file is a JSON object, got {type(d).__name__}", source=source)
     notes: list[str] = []
@@ -561,9 +564,9 @@ def parse_fold(d: Any, source: str = "<fold>", *, repair: bool = False) -> FoldM
         if not bad:
             try:
                 turned = orient(V, faces)
-            except MeshError as exc:
-                raise exc.with_source(source) from None
-            if len(turned.flipped):
+            except MeshError:  # non-manifold or non-orientable: the validation below names the element
+                turned = None
+            if turned is not None and 0 < len(turned.flipped) < len(faces) / 2:  # a few faces against the rest: turn those
                 faces = turned.faces
                 notes.append(f"{len(turned.flipped)} faces turned so every face is counter-clockwise seen from "
                              f"the front (first: face {int(turned.flipped[0])})")

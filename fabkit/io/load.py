@@ -81,24 +81,36 @@ def _obj_raw(path: str):
     from fabkit.io.obj import parse_obj, read_text
 
     text = read_text(path, "OBJ")
-    V, faces, face_data, vertex_data, _, _ = parse_obj(text, path)
+    V, faces, face_data, vertex_data, face_lines, vertex_lines = parse_obj(text, path)
     m = _OBJ_UNIT.search(text)
     unit = m.group(1) if m else None
     if unit is not None and unit not in UNITS:
         raise InputError(f"'# fabkit unit {unit}' is not one of {', '.join(UNITS)}", source=path)
-    return V, faces, face_data, vertex_data, unit
+    return V, faces, face_data, vertex_data, unit, (face_lines, vertex_lines)
 
 
 def _finish(path: str, fmt: str, V, faces, face_data, vertex_data, unit: str, how: str, notes: list,
             other_states: list | None = None, weld: bool = True, state: str = "mesh", model=None,
-            sides: dict | None = None) -> tuple[PolyMesh, LoadInfo]:
-    """Units already applied: weld, orient, merge, build and validate the mesh."""
+            sides: dict | None = None, lines: tuple | None = None) -> tuple[PolyMesh, LoadInfo]:
+    """Units already applied: weld, orient, merge, build and validate the mesh. `lines`: OBJ
+    (face_lines, vertex_lines), so errors found before renumbering name the file's line."""
     if len(faces) == 0:
         raise MeshError(f"no faces ({len(V)} vertices)", source=path)
     V = np.asarray(V, dtype=np.float64).reshape(-1, 3)
-    if not np.all(np.isfinite(V)):
-        v = int(np.flatnonzero(~np.all(np.isfinite(V), axis=1))[0])
-        raise MeshError(f"vertex {v} has a non-finite coordinate {V[v].tolist()}", source=path)
+
+    def located(exc: MeshError) -> MeshError:
+        if lines is None or exc.source:
+            return exc.with_source(path)
+        from fabkit.io.obj import locate_obj_error
+
+        return MeshError(locate_obj_error(exc.message, *lines), source=path)
+
+    try:  # the file as written: structure and coordinates, errors named by its lines
+        validate_mesh(PolyMesh(V, faces, validate=False), source=None)
+    except MeshError as exc:
+        msg = exc.message
+        if not ("inconsistent orientation" in msg or "non-manifold" in msg):
+            raise located(exc) from None
     n0 = len(V)
     vertex_map = None
     welded = 0
@@ -121,7 +133,7 @@ def _finish(path: str, fmt: str, V, faces, face_data, vertex_data, unit: str, ho
         faces = o.faces
         m = hygiene.merge_triangle_pairs(V, faces, geometry=other_states)
     except MeshError as exc:
-        raise exc.with_source(path) from None
+        raise located(exc) if not welded else exc.with_source(path) from None
     face_map = None
     if m.merged:
         face_map = m.face_map
@@ -138,7 +150,7 @@ def _finish(path: str, fmt: str, V, faces, face_data, vertex_data, unit: str, ho
         mesh = PolyMesh(V, faces, face_data=face_data, vertex_data=vertex_data, validate=False)
         mesh.warnings = validate_mesh(mesh, source=path)
     except MeshError as exc:
-        raise exc.with_source(path) from None
+        raise located(exc) if not (welded or m.merged) else exc.with_source(path) from None
     size = mesh.size
     note = unit_note(size, unit, how)
     if note:
@@ -241,10 +253,10 @@ def load_panel(path: str | os.PathLike, units: str | None = None, state: str = "
         raise ValueError(f"state must be one of {STATES}, got {state!r}")
     suffix = Path(path).suffix.lower()
     if suffix == ".obj":
-        V, faces, face_data, vertex_data, declared = _obj_raw(source)
+        V, faces, face_data, vertex_data, declared, lines = _obj_raw(source)
         unit, how = _resolve_unit(declared, units, source)
         return _finish(source, "obj", scale_to_metres(V, unit), faces, face_data, vertex_data, unit, how, [],
-                       weld=weld)
+                       weld=weld, lines=lines)
     if suffix == ".fold":
         model, info = load_fold_model(path, units)
         if state == "key" or model.n_frames == 0:

@@ -32,7 +32,7 @@ from fabkit.errors import InputError, MeshError
 from fabkit.io.atomic import atomic_write
 from fabkit.mesh import PolyMesh, validate_mesh
 
-__all__ = ["load_obj", "save_obj", "parse_obj"]
+__all__ = ["load_obj", "save_obj", "parse_obj", "read_text", "format_obj", "locate_obj_error"]
 
 #: OBJ statements we accept and ignore (geometry we do not use, grouping, materials, free-form).
 _IGNORED = frozenset("""vt vn vp l p g o s mg usemtl mtllib maplib usemap lod trace_obj shadow_obj bevel
@@ -164,7 +164,7 @@ def _check_counts(entries: dict, count: int, kind: str, source: str) -> dict[str
     return out
 
 
-def _locate(message: str, face_lines: list[int], vertex_lines: list[int]) -> str:
+def locate_obj_error(message: str, face_lines: list[int], vertex_lines: list[int]) -> str:
     """Add the OBJ line to the first 'face k' / 'vertex k' a mesh error mentions."""
     def face(m: re.Match) -> str:
         k = int(m.group(1))
@@ -211,7 +211,7 @@ def load_obj(path: str | os.PathLike) -> PolyMesh:
         mesh = PolyMesh(V, faces, face_data=face_data, vertex_data=vertex_data, validate=False)
         mesh.warnings = validate_mesh(mesh, source=source)
     except MeshError as exc:
-        raise MeshError(_locate(exc.message, face_lines, vertex_lines), source=source) from None
+        raise MeshError(locate_obj_error(exc.message, face_lines, vertex_lines), source=source) from None
     return mesh
 
 
