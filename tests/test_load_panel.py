@@ -10,7 +10,7 @@ from fabkit.errors import InputError, MeshError
 from fabkit.io import hygiene
 from fabkit.io.load import load_fold_model, load_panel
 from fabkit.io.save import save_panel
-from tests.panel_inputs import (fold_other_tool, plain_obj, reflect, rhino_3dm, shuffled, triangulated,
+from panel_inputs import (fold_other_tool, plain_obj, reflect, rhino_3dm, shuffled, triangulated,
                                 unwelded)
 
 
