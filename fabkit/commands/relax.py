@@ -190,7 +190,7 @@ def run(args) -> int:
     note = "" if written else "; no output written (--write-unconverged keeps it)"
     if moved_too_far:
         message = (f"a vertex moved {result.max_displacement * 1e3:.4g} mm, more than --max-move {args.max_move:g} "
-                   f"of the panel size ({limit * 1e3:.4g} mm): the relaxed panel is another shape "
+                   f"x the panel size {mesh.size:.4g} m = {limit * 1e3:.4g} mm: the relaxed panel is another shape "
                    f"({'converged' if result.converged else result.message})")
     else:
         message = result.message

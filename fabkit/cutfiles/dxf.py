@@ -31,6 +31,8 @@ def dxf_document(pattern: CutPattern) -> "ezdxf.document.Drawing":
         layer = doc.layers.add(name, color=aci)
         layer.description = description
     msp = doc.modelspace()
+    msp.dxf.extmin, msp.dxf.extmax = (x0, y0, 0.0), (x1, y1, 0.0)  # ezdxf writes the header's from these
+    msp.dxf.limmin, msp.dxf.limmax = (x0, y0), (x1, y1)
     for loop in pattern.outlines:
         msp.add_lwpolyline(loop.tolist(), format="xy", close=True, dxfattribs={"layer": "CUT"})
     for layer, chains in pattern.polylines.items():
