@@ -68,7 +68,11 @@ def fold_other_tool(path: Path, V, faces, assignment: dict, *, unit: str | None 
     possibly lower case, no edges_foldAngle unless asked, edges in their own order."""
     edges = sorted({(min(a, b), max(a, b)) for f in faces for a, b in zip(f, list(f[1:]) + [f[0]])},
                    key=lambda e: (-e[1], e[0]))  # an order of its own
-    letters = [assignment.get(e, "F") for e in edges]
+    count: dict = {}
+    for f in faces:
+        for a, b in zip(f, list(f[1:]) + [f[0]]):
+            count[(min(a, b), max(a, b))] = count.get((min(a, b), max(a, b)), 0) + 1
+    letters = [assignment.get(e, "B" if count[e] == 1 else "F") for e in edges]
     d = {"file_creator": "another tool", "vertices_coords": np.asarray(V).tolist(),
          "edges_vertices": [list(e) for e in edges],
          "edges_assignment": [a.lower() if lower else a for a in letters],

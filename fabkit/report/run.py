@@ -23,7 +23,7 @@ def _kind(name: str, d: dict) -> str | None:
         return kind if kind in STAGE_ORDER else None
     if d.get("command") in STAGE_ORDER:
         return str(d["command"])
-    if "max_defect" in d or ("converged" in d and "input_summary" in d):
+    if "converged" in d and "input_summary" in d:
         return "relax"
     return None
 
@@ -31,14 +31,17 @@ def _kind(name: str, d: dict) -> str | None:
 def _status(d: dict) -> str:
     for key in ("ok", "passed", "converged"):
         if isinstance(d.get(key), bool):
+            if key == "converged" and d.get("max_move", {}).get("ok") is False:
+                return "fail"
             return "pass" if d[key] else "fail"
     return "pass" if not d.get("problems") else "fail"
 
 
 def _measure(kind: str, d: dict) -> str:
     if kind == "relax":
-        return (f"max defect {d.get('max_defect', float('nan')):.3g} rad, planarity "
-                f"{d.get('max_planarity', float('nan')):.3g}")
+        final = d.get("final") or {}
+        return (f"max defect {final.get('max_abs_angle_defect_rad', float('nan')):.3g} rad, planarity "
+                f"{final.get('max_planarity', float('nan')):.3g}")
     if kind == "unfold":
         dev = d.get("development", {})
         return f"max length deviation {dev.get('max_relative_deviation', float('nan')):.3g}"
