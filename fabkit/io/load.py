@@ -260,12 +260,13 @@ def load_panel(path: str | os.PathLike, units: str | None = None, state: str = "
     if suffix == ".fold":
         model, info = load_fold_model(path, units)
         if state == "key" or model.n_frames == 0:
-            V, chosen, others = model.vertices_coords, "key frame", [f.vertices_coords for f in model.frames]
+            V, chosen = model.vertices_coords, "key frame"
         else:
             i = -1 if state == "folded" else 0
             V = model.frames[i].vertices_coords
             chosen = f"frame {model.n_frames if i == -1 else 1} of {model.n_frames}"
-            others = [model.vertices_coords]
+        # triangle pairs merge only when planar in every state, so each state gets the same faces
+        others = [model.vertices_coords] + [f.vertices_coords for f in model.frames]
         notes = list(info.notes)
         face_data = dict(model.faces_data)
         face_data.pop("polygon", None)  # the triangle -> polygon map no longer applies once re-merged

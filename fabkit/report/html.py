@@ -210,7 +210,9 @@ def write_report_html(out: Path, summary: dict) -> Path:
             figures.append(_img(f.read_bytes(), captions.get(f.name, f.name)))
     toolpath_out = (first("toolpath").get("report") or {}).get("output")
     path_json = _read_json(out / Path(toolpath_out).name) if toolpath_out else _read_json(out / "path.json")
-    check_json = first("check").get("report") or _read_json(out / "check.json")
+    check_json = first("check").get("report") or {}
+    if "along_path" not in check_json:  # a stage summary without the per-waypoint numbers: the file has them
+        check_json = _read_json(out / "check.json") or check_json
     figures.append(_img(plot_joints(path_json, check_json), "joint angles and speeds along the toolpath"))
     figures.append(_img(plot_clearance(check_json), "clearance along the path"))
     figures = [f for f in figures if f]
