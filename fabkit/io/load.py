@@ -86,7 +86,8 @@ def _obj_raw(path: str):
     unit = m.group(1) if m else None
     if unit is not None and unit not in UNITS:
         raise InputError(f"'# fabkit unit {unit}' is not one of {', '.join(UNITS)}", source=path)
-    return V, faces, face_data, vertex_data, unit, (face_lines, vertex_lines)
+    ours = text.startswith("# fabkit OBJ")  # written by fabkit: clean by construction, ids kept exactly
+    return V, faces, face_data, vertex_data, unit, (face_lines, vertex_lines), ours
 
 
 def _finish(path: str, fmt: str, V, faces, face_data, vertex_data, unit: str, how: str, notes: list,
@@ -253,10 +254,10 @@ def load_panel(path: str | os.PathLike, units: str | None = None, state: str = "
         raise ValueError(f"state must be one of {STATES}, got {state!r}")
     suffix = Path(path).suffix.lower()
     if suffix == ".obj":
-        V, faces, face_data, vertex_data, declared, lines = _obj_raw(source)
+        V, faces, face_data, vertex_data, declared, lines, ours = _obj_raw(source)
         unit, how = _resolve_unit(declared, units, source)
         return _finish(source, "obj", scale_to_metres(V, unit), faces, face_data, vertex_data, unit, how, [],
-                       weld=weld, lines=lines)
+                       weld=weld and not ours, lines=lines)
     if suffix == ".fold":
         model, info = load_fold_model(path, units)
         if state == "key" or model.n_frames == 0:
