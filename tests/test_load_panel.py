@@ -278,3 +278,22 @@ def test_svg_with_unknown_colours_or_curves_is_refused(tmp_path):
     (tmp_path / "b.svg").write_text(SVG.replace("M 100 0 l 0 200", "M 100 0 C 1 2 3 4 100 200"))
     with pytest.raises(InputError, match="curve"):
         load_panel(tmp_path / "b.svg")
+
+
+def test_inches_and_centimetres(tmp_path):
+    V, F = reflect()
+    for unit, per in (("in", 0.0254), ("cm", 0.01)):
+        mesh, info = load_panel(plain_obj(tmp_path / f"{unit}.obj", V / per, F), units=unit)
+        np.testing.assert_allclose(mesh.vertices, V, rtol=0, atol=1e-15)
+        assert info.unit == unit and not info.notes
+    with pytest.raises(InputError, match="unknown unit 'ft'"):
+        load_panel(tmp_path / "in.obj", units="ft")
+
+
+def test_cli_units_flag_is_on_every_reading_command():
+    from fabkit.cli import build_parser
+
+    for name in ("relax", "unfold", "refold", "toolpath", "info", "panels"):
+        parser = build_parser(only=name)
+        sub = next(a for a in parser._actions if a.dest == "command").choices[name]
+        assert any("--units" in a.option_strings for a in sub._actions), name
