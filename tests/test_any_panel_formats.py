@@ -114,3 +114,30 @@ def test_refold_of_the_flat_fold_reaches_the_panel(runs, base, name):
     L = np.linalg.norm(last[seq.edges_vertices[:, 0]] - last[seq.edges_vertices[:, 1]], axis=1)
     L0 = np.linalg.norm(target[seq.edges_vertices[:, 0]] - target[seq.edges_vertices[:, 1]], axis=1)
     np.testing.assert_allclose(L, L0, rtol=0, atol=1e-9 * size)
+
+
+@pytest.mark.slow
+def test_refold_from_another_tools_crease_pattern_with_a_folded_frame(tmp_path, base):
+    """A FOLD crease pattern as another tool writes it (millimetres without frame_unit, lower-case
+    assignments, triangles, no fold angles) plus its folded frame: refold needs no TARGET."""
+    from fabkit.cutfiles.creases import crease_assignment
+    from fabkit.mesh import PolyMesh
+    from fabkit.unfold import develop
+
+    V, F = base
+    panel = PolyMesh(V, F)
+    flat = np.column_stack([develop(panel).uv, np.zeros(len(V))])
+    a = crease_assignment(panel)
+    sides = {(int(u), int(v)): c for (u, v), c in zip(panel.edges.tolist(), a.edges_assignment.tolist())}
+    path = fold_other_tool(tmp_path / "cp.fold", flat * 1000, triangulated(F, seed=2), sides, lower=True,
+                           frames=[V * 1000])
+    assert main(["refold", str(path), "-o", str(tmp_path / "seq.fold"), "--units", "mm", "--drive", "all",
+                 "--frames", "3", "-q"]) == 0
+    seq = load_fold(tmp_path / "seq.fold")
+    last = seq.frames[-1].vertices_coords
+    e = seq.edges_vertices
+    size = float(np.linalg.norm(np.ptp(V, axis=0)))
+    np.testing.assert_allclose(np.linalg.norm(last[e[:, 0]] - last[e[:, 1]], axis=1),
+                               np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1), rtol=0, atol=1e-9 * size)
+    # the crease pattern's valley crease is kept as V
+    assert np.sum(seq.edges_assignment == "V") >= np.sum(a.edges_assignment == "V")
