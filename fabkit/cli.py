@@ -38,6 +38,8 @@ COMMANDS: dict[str, str] = {
     "check": "MuJoCo check of every waypoint and the motion between them",
     "send": "send a checked toolpath to a UR controller over RTDE",
     "ursim": "run the controller stand-in (RTDE, dashboard, script ports) in the foreground",
+    "cell": "write a robot cell as a MuJoCo MJCF file",
+    "report": "report.html for any run folder from its stages' JSON reports",
 }
 
 EXIT_OK, EXIT_TOLERANCE, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3

@@ -199,10 +199,17 @@ class FaceFrames:
 
 
 def fold_positions(model) -> np.ndarray:
-    """Vertex positions `(S, n, 3)` of every fold state of a `FoldModel` (the key frame if none)."""
+    """Vertex positions `(S, n, 3)` of every fold state of a `FoldModel` (the key frame if none).
+
+    A flat crease pattern whose frames do not start flat (a panel's flat + folded file) gets the
+    key frame as its first state: folding starts from the flat sheet."""
     if model.n_frames == 0:
         return np.asarray(model.vertices_coords)[None]
-    return np.stack([np.asarray(f.vertices_coords) for f in model.frames])
+    states = [np.asarray(f.vertices_coords) for f in model.frames]
+    key = np.asarray(model.vertices_coords)
+    if len(key) and np.all(key[:, 2] == 0.0) and not np.all(states[0][:, 2] == 0.0):
+        states.insert(0, key)
+    return np.stack(states)
 
 
 def structure_tags(model) -> dict:

@@ -60,6 +60,7 @@ class CellNames:
     panel_bodies: tuple[str, ...] = ()
     grip_face: int | None = None
     margins: dict = field(default_factory=dict)
+    spec: object = field(default=None, repr=False, compare=False)  # the MjSpec compiled (spec.to_xml(): MJCF)
 
 
 def _rgba(kind: str) -> list[float]:
@@ -179,5 +180,5 @@ def build_cell_model(cell, panel_state: PanelModel | None = None, *, state: floa
                       flange_site=arm["flange_site"], tcp_site="tcp", arm_bodies=tuple(arm["bodies"]),
                       tool_body="tool", panel_bodies=tuple(panel_bodies), grip_face=grip,
                       margins={"environment_m": window, "panel_m": panel_margin,
-                               "clearance_m": float(cell.limits.clearance)})
+                               "clearance_m": float(cell.limits.clearance)}, spec=spec)
     return m, names

@@ -63,7 +63,6 @@ EXPECTED: dict[str, str] = {
     "frame-wrong-vertex-count.fold": "frame 1: vertices_coords has shape (3, 3), expected (6, 3)",
     "frames-not-a-list.fold": "file_frames must be a list",
     "inconsistent-orientation.fold": "inconsistent orientation",
-    "inconsistent-orientation.obj": "inconsistent orientation",
     "index-out-of-range.obj": "line 5: face refers to vertex 9",
     "inf-coordinate.obj": "vertex 2 (line 3) has a non-finite coordinate",
     "latin1-text.obj": "invalid UTF-8",

@@ -57,10 +57,11 @@ def test_written_text_layout():
     text = format_obj(grid(1, 1).with_data(face_data={"strip": np.array([3])}), header="panel P1\nmetres")
     lines = text.splitlines()
     assert lines[0].startswith("# fabkit OBJ")
-    assert lines[1:3] == ["# panel P1", "# metres"]
-    assert lines[3:7] == ["v 0.0 0.0 0.0", "v 1.0 0.0 0.0", "v 0.0 1.0 0.0", "v 1.0 1.0 0.0"]
-    assert lines[7] == "f 1 2 4 3"
-    assert lines[8] == "# fabkit face_data strip int64 [3]"
+    assert lines[1] == "# fabkit unit m"
+    assert lines[2:4] == ["# panel P1", "# metres"]
+    assert lines[4:8] == ["v 0.0 0.0 0.0", "v 1.0 0.0 0.0", "v 0.0 1.0 0.0", "v 1.0 1.0 0.0"]
+    assert lines[8] == "f 1 2 4 3"
+    assert lines[9] == "# fabkit face_data strip int64 [3]"
 
 
 def test_other_tools_ignore_fabkit_comments(tmp_path):

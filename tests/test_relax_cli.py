@@ -1,6 +1,8 @@
 """`fabkit relax` end to end: exit codes 0/1/2, output file contract, JSON report."""
 import json
 
+import numpy as np
+
 import pytest
 
 from fabkit.cli import main
@@ -132,3 +134,49 @@ def test_bad_edge_length_files_exit_2_with_one_line(tmp_path, noisy_obj, capsys,
     assert len(err) == 1 and message in err[0] and str(bad) in err[0]
     assert not out.exists()
     assert main(["relax", str(src), "-o", str(out), "--crease-fairness", "-1"]) == 2
+
+
+def _saddle(path, n=6, height=1.5):
+    """A plain OBJ saddle z = h (x^2 - y^2): far from developable, relax must move it a lot."""
+    xs, ys = np.meshgrid(np.linspace(-0.4, 0.4, n + 1), np.linspace(-0.4, 0.4, n + 1))
+    V = np.column_stack([xs.ravel(), ys.ravel(), height * (xs.ravel() ** 2 - ys.ravel() ** 2)])
+    F = [[j * (n + 1) + i, j * (n + 1) + i + 1, (j + 1) * (n + 1) + i + 1, (j + 1) * (n + 1) + i]
+         for j in range(n) for i in range(n)]
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in V.tolist()] + ["f " + " ".join(str(i + 1) for i in f) for f in F]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_relax_that_moves_the_panel_too_far_exits_1(tmp_path, capsys):
+    src = _saddle(tmp_path / "saddle.obj")
+    out, rep = tmp_path / "r.obj", tmp_path / "r.json"
+    assert main(["relax", str(src), "-o", str(out), "--report", str(rep)]) == 1
+    err = capsys.readouterr().err
+    assert "more than --max-move 0.05" in err and "another shape" in err
+    assert not out.exists()
+    r = json.loads(rep.read_text())
+    assert r["max_move"]["ok"] is False and r["max_move"]["moved_m"] > r["max_move"]["limit_m"]
+    # a generous limit lets the same relax through
+    assert main(["relax", str(src), "-o", str(out), "--max-move", "1"]) == 0 and out.exists()
+
+
+def test_relax_reads_millimetres_with_units_and_reports_the_unit(tmp_path, capsys):
+    from fabkit.generate.reflect import reflect_panel
+
+    panel = reflect_panel(columns=8, rows=2)
+    V = panel.vertices * 1000
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in V.tolist()] + [
+        "f " + " ".join(str(i + 1) for i in f) for f in panel.faces_list()]
+    (tmp_path / "mm.obj").write_text("\n".join(lines) + "\n")
+    assert main(["relax", str(tmp_path / "mm.obj"), "-o", str(tmp_path / "a.obj")]) == 0
+    assert "pass --units mm" in capsys.readouterr().err
+    assert main(["relax", str(tmp_path / "mm.obj"), "-o", str(tmp_path / "b.obj"), "--units", "mm",
+                 "--report", str(tmp_path / "b.json")]) == 0
+    assert "note" not in capsys.readouterr().err
+    r = json.loads((tmp_path / "b.json").read_text())
+    assert r["loaded"]["unit"] == "mm" and r["unit"] == "m"
+    from fabkit.io.load import load_panel
+
+    b, info = load_panel(tmp_path / "b.obj")
+    assert info.unit_source == "from the file"
+    np.testing.assert_allclose(b.vertices, panel.vertices, atol=1e-12)

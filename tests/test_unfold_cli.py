@@ -136,3 +136,32 @@ def test_a_failing_writer_leaves_no_output_behind(tmp_path, panel, monkeypatch, 
                "--svg", str(tmp_path / "f.svg"), "--png", str(tmp_path / "f.png"), "--report", str(tmp_path / "r.json")])
     assert rc == 3 and "disk on fire" in capsys.readouterr().err
     _assert_nothing_written(tmp_path, ["panel.obj"])
+
+
+def test_default_max_error_fails_a_non_developable_mesh(tmp_path, capsys):
+    cap = tmp_path / "cap.obj"
+    save_obj(sphere_cap(), cap)
+    assert main(["unfold", str(cap), "-o", str(tmp_path / "f.obj"), "-q", "--report", str(tmp_path / "r.json")]) == 1
+    assert "exceeds --max-error 0.001" in capsys.readouterr().err
+    assert json.loads((tmp_path / "r.json").read_text())["max_error"] == 1e-3
+
+
+def test_dxf_extents_and_units(panel, tmp_path):
+    dxf = tmp_path / "f.dxf"
+    assert main(["unfold", str(panel), "-o", str(tmp_path / "f.obj"), "--dxf", str(dxf), "-q"]) == 0
+    doc = ezdxf.readfile(dxf)
+    assert doc.header["$INSUNITS"] == 4
+    lo, hi = np.array(doc.header["$EXTMIN"])[:2], np.array(doc.header["$EXTMAX"])[:2]
+    pts = np.array([p[:2] for e in doc.modelspace().query("LWPOLYLINE[layer=='CUT']") for p in e.get_points()])
+    np.testing.assert_allclose(lo, pts.min(axis=0), atol=1e-9)
+    np.testing.assert_allclose(hi, pts.max(axis=0), atol=1e-9)
+
+
+def test_flat_fold_output_holds_the_flat_and_the_folded_state(panel, tmp_path):
+    from fabkit.io.fold import load_fold
+
+    assert main(["unfold", str(panel), "-o", str(tmp_path / "flat.fold"), "-q"]) == 0
+    model = load_fold(tmp_path / "flat.fold")
+    assert model.n_frames == 1 and np.all(model.vertices_coords[:, 2] == 0)
+    np.testing.assert_allclose(model.frames[0].vertices_coords, load_obj(panel).vertices, atol=1e-12)
+    assert set(model.edges_assignment) >= {"B", "V", "F"}

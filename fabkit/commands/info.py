@@ -34,7 +34,10 @@ Example:
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("file", metavar="FILE", help="a mesh (.obj) or FOLD file (.fold)")
+    parser.add_argument("file", metavar="FILE", help="a mesh (.obj, .3dm, .svg crease pattern) or FOLD file (.fold)")
+    from fabkit.commands._loading import add_units
+
+    add_units(parser)
     parser.add_argument("--frame", type=int, metavar="K",
                         help="FOLD files: measure frame K instead of the key frame (0 = crease pattern, "
                              "1..N = fold states, -1 = the last state)")
@@ -69,24 +72,26 @@ def _measured_mesh(model, frame: int | None, path: str):
     return model.frame_mesh(k - 1), k
 
 
-def summarize(path: str, frame: int | None = None) -> dict:
+def summarize(path: str, frame: int | None = None, units: str | None = None) -> dict:
     """Read and validate `path`; return the summary dictionary (raises `InputError` for a bad file).
 
     `frame` picks the FOLD frame that is measured (default: the key frame)."""
     from fabkit import measures
     from fabkit.errors import InputError
-    from fabkit.io import load_fold, load_obj
+    from fabkit.io.load import load_fold_model, load_panel
 
     suffix = Path(path).suffix.lower()
-    if suffix == ".obj":
+    if suffix in (".obj", ".3dm", ".svg"):
         if frame is not None:
             raise InputError("only FOLD files have frames", source="--frame")
-        mesh, model, measured = load_obj(path), None, None
+        mesh, loaded = load_panel(path, units)
+        model, measured = None, None
     elif suffix == ".fold":
-        model = load_fold(path)
+        model, loaded = load_fold_model(path, units)
         mesh, measured = _measured_mesh(model, frame, path)
     else:
-        raise InputError(f"cannot read '{suffix or 'no suffix'}': fabkit info reads .obj and .fold", source=path)
+        raise InputError(f"cannot read '{suffix or 'no suffix'}': fabkit info reads .obj, .fold, .3dm and .svg",
+                         source=path)
     from fabkit.structure import panel_structure
 
     s = measures.summary(mesh)
@@ -94,7 +99,7 @@ def summarize(path: str, frame: int | None = None) -> dict:
     report = {
         "format": "fabkit.info/1",
         "file": str(path),
-        "kind": "fold" if model else "obj",
+        "kind": loaded.format,
         "vertices": s["vertices"],
         "faces": s["faces"],
         "faces_by_size": _faces_by_size(mesh.face_sizes),
@@ -111,6 +116,7 @@ def summarize(path: str, frame: int | None = None) -> dict:
         "face_tags": sorted(mesh.face_data),
         "vertex_tags": sorted(mesh.vertex_data),
         "unit": "m",
+        "loaded": loaded.to_report(),
         "warnings": list(mesh.warnings),
         "structure": panel_structure(folded).summary(folded),
     }
@@ -123,7 +129,7 @@ def summarize(path: str, frame: int | None = None) -> dict:
             "edges_assignment": {a: int((model.edges_assignment == a).sum()) for a in "BMVFJUC"
                                  if (model.edges_assignment == a).any()},
             "creator": model.creator,
-            "notes": list(model.notes),
+            "notes": list(loaded.notes),
             "measured_frame": measured,
         })
         if model.n_frames:
@@ -193,6 +199,8 @@ def _lines(r: dict) -> list[str]:
                        f"{r['frames_creases_bent_wrong_way']} crease-frame(s) bent against their assignment")
         out.extend(f"  note: {n}" for n in r["notes"])
     out.extend(structure_lines(r["structure"]))
+    if r["kind"] != "fold":
+        out.extend(f"  note: {n}" for n in r["loaded"]["notes"])
     out.extend(f"  warning: {w}" for w in r["warnings"])
     return out
 
@@ -221,7 +229,7 @@ def run(args) -> int:
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # unused-vertex warnings are in the report instead
-        report = summarize(args.file, args.frame)
+        report = summarize(args.file, args.frame, getattr(args, "units", None))
     for line in _lines(report):
         say(args, line)
     write_report(args, report)

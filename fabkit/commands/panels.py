@@ -29,7 +29,11 @@ example:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("surface", metavar="SURFACE.obj", help="quad-grid surface (low-poly with 3 vertices across, or high-res)")
+    p.add_argument("surface", metavar="SURFACE.obj", help="quad-grid surface (low-poly with 3 vertices across, or "
+                                                       "high-res): .obj, .3dm or .fold")
+    from fabkit.commands._loading import add_units
+
+    add_units(p)
     p.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--rows", type=int, default=14, help="bands between arcs, an even number (default 14)")
     p.add_argument("--cols", type=int, default=7, help="panels per aligned band (default 7)")
@@ -61,14 +65,19 @@ def plan_files(args, plan) -> None:
     plan.output(args.report, "--report")
 
 
-def load_surface(path: str, levels: int):
-    """A GridSurface from an OBJ quad grid (subdivided when it is a 3-vertex-across low-poly)."""
+def load_surface(path: str, levels: int, units: str | None = None):
+    """A GridSurface from a quad grid (subdivided when it is a 3-vertex-across low-poly), read by the
+    panel loader (`fabkit.io.load`: units, welding, winding, split quads merged back)."""
+    import sys
+
     import numpy as np
 
-    from fabkit.io.obj import load_obj
+    from fabkit.io.load import load_panel
     from fabkit.panels.surface import GridSurface, grid_from_topology, subdivide_grid
 
-    mesh = load_obj(path)
+    mesh, info = load_panel(path, units)
+    for note in info.notes:
+        print(f"fabkit panels: note: {path}: {note}", file=sys.stderr)
     try:
         index, lowpoly = grid_from_topology(mesh)
     except InputError as exc:
@@ -105,7 +114,7 @@ def run(args) -> int:
         from fabkit.panels.executor import check_scheduler
 
         check_scheduler(args.scheduler)
-    surface, lowpoly = load_surface(args.surface, args.levels)
+    surface, lowpoly = load_surface(args.surface, args.levels, args.units)
     layout = layout_panels(surface, rows=args.rows, cols=args.cols, columns_per_panel=args.columns_per_panel)
     options = PanelsOptions(tol_congruency=args.tolerance, tol_unfold=args.unfold_tolerance,
                             max_rounds=args.max_rounds, symmetric=args.symmetric,

@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from fabkit.commands._common import add_common, progress, say, to_jsonable
+from fabkit.commands._loading import add_units, load_panel_for
 
 HELP = """Fold states a robot walks the sheet through, from the flat pattern to the target (paper §3.6).
 
@@ -40,7 +41,10 @@ Example:
 
 def add_arguments(parser) -> None:
     parser.add_argument("flat", metavar="FLAT.obj", help="flat pattern (z = 0), same faces as TARGET")
-    parser.add_argument("target", metavar="TARGET.obj", help="the folded (relaxed) panel")
+    parser.add_argument("target", metavar="TARGET.obj", nargs="?", default=None,
+                        help="the folded (relaxed) panel (.obj, .fold, .3dm); left out when FLAT is a .fold "
+                             "crease pattern with a folded frame (its last frame is the target)")
+    add_units(parser)
     parser.add_argument("-o", "--output", metavar="SEQ.fold", required=True, help="FOLD animation")
     parser.add_argument("--frames", type=int, default=20, metavar="N",
                         help="states per folding step, flat and target included (default 20)")
@@ -95,7 +99,7 @@ def _check_args(args) -> list[Path]:
     if len(set(resolved)) != len(resolved):
         raise InputError("two outputs name the same file", source=", ".join(outputs))
     for inp in (args.flat, args.target):
-        if Path(inp).resolve() in resolved:
+        if inp is not None and Path(inp).resolve() in resolved:
             raise InputError("an output would overwrite the input", source=inp)
     for p in outputs:
         if not Path(p).parent.is_dir():
@@ -113,13 +117,22 @@ def run(args) -> int:
     from fabkit.commands._common import write_json
     from fabkit.io.atomic import atomic_path
     from fabkit.io.fold import save_fold
-    from fabkit.io.obj import load_obj
     from fabkit.refold import NotAFoldError, RefoldSolver
     from fabkit.refold.export import plot_fold_angles, save_glb_strip, save_obj_states, to_fold_model
     from fabkit.refold.sequence import build_schedule, load_drive_file, parse_steps
 
     _check_args(args)
-    flat, target = load_obj(args.flat), load_obj(args.target)
+    flat, flat_info = load_panel_for(args, args.flat, state="key")
+    if args.target is None:
+        from fabkit.errors import InputError
+
+        model = flat_info.model
+        if model is None or model.n_frames == 0:
+            raise InputError("needs TARGET, or a .fold crease pattern with a folded frame as FLAT", source=args.flat)
+        args.target = args.flat
+        target, _ = load_panel_for(args, args.flat, state="folded")
+    else:
+        target, _ = load_panel_for(args, args.target)
     report = {"format": "fabkit.refold/1", "flat": str(args.flat), "target": str(args.target), "ok": False,
               "problems": []}
     try:

@@ -5,7 +5,11 @@ import argparse
 import dataclasses
 
 from fabkit.commands._common import add_common, progress, say, write_report
+from fabkit.commands._loading import add_units, load_panel_for
 from fabkit.errors import InputError
+
+#: --max-move default: share of the panel size (bounding-box diagonal) a vertex may move
+DEFAULT_MAX_MOVE = 0.05
 
 HELP = """Relax a quad mesh toward a developable, planar-quad panel (paper §2.2-2.7): zero angle defect
 (2π − Σθ) at every interior vertex and every face vertex on its face's best-fit plane.
@@ -16,8 +20,13 @@ turns it off) picks, among the panels that meet the tolerances, the one closest 
 smoothest crease curves, so input noise does not end up in the fold angles. An input already within
 tolerance is left as it is. OUT has IN's vertex order, faces and data.
 
-Exit codes: 0 converged; 1 did not converge (the measures reached are printed and reported; OUT is
-not written unless --write-unconverged); 2 bad input (non-manifold, NaN, a single face, no interior
+IN is read by the one panel loader (docs/file-formats.md): its unit (or --units), coincident
+vertices welded, faces wound consistently, triangle pairs of split quads merged back; each of these
+is said in a note. A relax that moves a vertex more than --max-move of the panel size has made a
+different shape and fails.
+
+Exit codes: 0 converged; 1 did not converge or moved the panel more than --max-move (the measures
+reached are printed and reported; OUT is not written unless --write-unconverged); 2 bad input (non-manifold, NaN, a single face, no interior
 vertex) or bad options.
 
 examples:
@@ -39,8 +48,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from fabkit.relax.options import BOUNDARIES, METHODS, RelaxOptions
 
     d = RelaxOptions()
-    p.add_argument("input", metavar="IN.obj", help="input mesh (OBJ, polygons)")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.obj", help="relaxed mesh (OBJ)")
+    p.add_argument("input", metavar="IN", help="input mesh: .obj, .fold (its last fold state), .3dm or .svg")
+    p.add_argument("-o", "--output", required=True, metavar="OUT",
+                   help="relaxed mesh: .obj (metres, tags kept), .fold or .3dm")
+    add_units(p)
+    p.add_argument("--max-move", type=float, default=DEFAULT_MAX_MOVE, metavar="SHARE",
+                   help=f"fail (exit 1) when a vertex moved more than this share of the panel size "
+                        f"(bounding-box diagonal; default {DEFAULT_MAX_MOVE:g}): the result would be another "
+                        "shape, not the input made developable")
     p.add_argument("--method", choices=METHODS, default=d.method,
                    help="dr: dynamic relaxation + Gauss-Newton finish (default); newton: Gauss-Newton "
                         "only; lbfgs: scipy L-BFGS + finish")
@@ -132,10 +147,12 @@ def _kept_edges(mesh, path, keep_boundary: bool) -> dict:
 
 
 def run(args) -> int:
-    from fabkit.io.obj import load_obj, save_obj
+    from fabkit.io.save import save_panel
     from fabkit.relax import Relaxer, RelaxOptions
 
-    mesh = load_obj(args.input)
+    if not (args.max_move > 0):
+        raise InputError(f"must be a positive share of the panel size, got {args.max_move}", source="--max-move")
+    mesh, loaded = load_panel_for(args, args.input)
     try:
         options = RelaxOptions(
             method=args.method, tol_defect=args.tol_defect, tol_planarity=args.tol_planarity,
@@ -151,15 +168,22 @@ def run(args) -> int:
     with progress(args, f"relaxing {args.input}") as advance:
         result = solver.solve()
         advance(1)
-    written = result.converged or args.write_unconverged
+    limit = args.max_move * mesh.size
+    moved_too_far = result.max_displacement > limit
+    ok = result.converged and not moved_too_far
+    written = ok or args.write_unconverged
     if written:
-        save_obj(result.mesh, args.output)
+        save_panel(result.mesh, args.output)
     report = {
         "input": str(args.input),
         "output": str(args.output) if written else None,
         "input_summary": {"vertices": mesh.n_vertices, "faces": mesh.n_faces,
                           "interior_vertices": int(mesh.interior_vertex_mask.sum())},
         **result.to_report(),
+        "unit": "m",
+        "loaded": loaded.to_report(),
+        "max_move": {"share": args.max_move, "limit_m": limit, "moved_m": result.max_displacement,
+                     "ok": not moved_too_far},
     }
     report["options"] = dataclasses.asdict(options)
     write_report(args, report)
@@ -167,11 +191,17 @@ def run(args) -> int:
     summary = (f"max |angle defect| {result.max_defect:.3g} rad, max planarity {result.max_planarity:.3g}, "
                f"moved max {result.max_displacement * 1e3:.3g} mm / mean {result.mean_displacement * 1e3:.3g} mm, "
                f"{result.seconds:.2f} s ({phases})")
-    if result.converged:
+    if ok:
         say(args, f"relaxed {args.input} -> {args.output}: converged, {summary}")
         return 0
     import sys
 
     note = "" if written else "; no output written (--write-unconverged keeps it)"
-    print(f"fabkit relax: {args.input}: {result.message}{note}", file=sys.stderr)
+    if moved_too_far:
+        message = (f"a vertex moved {result.max_displacement * 1e3:.4g} mm, more than --max-move {args.max_move:g} "
+                   f"x the panel size {mesh.size:.4g} m = {limit * 1e3:.4g} mm: the relaxed panel is another shape "
+                   f"({'converged' if result.converged else result.message})")
+    else:
+        message = result.message
+    print(f"fabkit relax: {args.input}: {message}{note}", file=sys.stderr)
     return 1

@@ -32,6 +32,9 @@ Example:
 
 def add_arguments(parser) -> None:
     parser.add_argument("fold", metavar="SEQ.fold", help="fold sequence (FOLD file with fold states as frames)")
+    from fabkit.commands._loading import add_units
+
+    add_units(parser)
     parser.add_argument("--cell", required=True, metavar="CELL.toml", help="robot cell description")
     parser.add_argument("-o", "--output", required=True, metavar="PATH.json", help="toolpath to write")
     parser.add_argument("--script", metavar="PROG.script", help="also write the URScript program")
@@ -83,7 +86,7 @@ def run(args) -> int:
 
     from fabkit.frames import check_grip_face_moves, face_frames_of, middle_row_frames
     from fabkit.io.atomic import atomic_write
-    from fabkit.io.fold import load_fold
+    from fabkit.commands._loading import load_fold_for
     from robot.cell import load_cell
     from robot.motion import MotionParams
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
@@ -92,7 +95,7 @@ def run(args) -> int:
 
     _check_args(args)
     cell = load_cell(args.cell)
-    model = load_fold(args.fold)
+    model, _ = load_fold_for(args, args.fold)
     check_fold_coordinates(model, source=args.fold)  # a vertex at 1e300 is bad input, not a motion
     if model.n_frames == 0:
         raise InputError("has no fold states (no file_frames)", source=args.fold)

@@ -7,10 +7,17 @@ import sys
 from pathlib import Path
 
 from fabkit.commands._common import add_common, progress, say, to_jsonable
+from fabkit.commands._loading import add_units, load_panel_for
+
+#: --max-error default: relative edge/diagonal length deviation (0.1 %: 0.6 mm on a 600 mm panel)
+DEFAULT_MAX_ERROR = 1e-3
 
 HELP = """Unfold a panel into its flat pattern (paper §2.8, §3.3) and write cut files.
 
-FLAT.obj has IN's vertex order, faces and face/vertex data, with z = 0 (metres). The isometric
+IN is .obj, .fold (its last fold state), .3dm or .svg, read by the one panel loader (units,
+welding, winding, quads re-merged: docs/file-formats.md). FLAT.obj has IN's vertex order, faces
+and face/vertex data, with z = 0 (metres); FLAT.fold is the crease pattern with IN as its folded
+state (what `fabkit refold FLAT.fold` and `fabkit toolpath` read); FLAT.3dm a Rhino file. The isometric
 method minimises the relative length deviation of every edge and face diagonal, starting from an
 exact face-by-face layout; conformal (LSCM) and authalic developments are there for comparison.
 The error metrics are the paper's: mean and max of |l2D - l3D| / l3D over edges and diagonals.
@@ -21,7 +28,7 @@ different face_data "strip" when IN has strip tags, else inferred from the geome
 fold angle jumps against the bending beside them, along chains from boundary to boundary; see
 'fabkit info'); --crease-angle replaces the inference by a bare dihedral threshold.
 
-Exit codes: 0 ok; 1 a check failed (--max-error exceeded, flipped faces, a self-overlapping
+Exit codes: 0 ok; 1 a check failed (--max-error, default 1e-3, exceeded, flipped faces, a self-overlapping
 outline or a solver that did not converge: files are still written and the report says which);
 2 bad input (nothing written).
 
@@ -32,8 +39,10 @@ Example:
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("input", metavar="IN.obj", help="the folded (relaxed) panel")
-    parser.add_argument("-o", "--output", metavar="FLAT.obj", required=True, help="flat pattern mesh (z = 0)")
+    parser.add_argument("input", metavar="IN", help="the folded (relaxed) panel: .obj, .fold, .3dm or .svg")
+    parser.add_argument("-o", "--output", metavar="FLAT", required=True,
+                        help="flat pattern (z = 0): .obj, .fold (with IN as its folded state) or .3dm")
+    add_units(parser)
     parser.add_argument("--dxf", metavar="F.dxf", help="DXF cut file (millimetres)")
     parser.add_argument("--svg", metavar="F.svg", help="SVG cut file (millimetres)")
     parser.add_argument("--png", metavar="F.png", help="picture of the pattern coloured by length deviation")
@@ -42,8 +51,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--norm", type=float, default=2.0, metavar="P",
                         help="isometric only: minimise sum |relative deviation|^P; 2 (default) is the paper's "
                              "least-squares spring energy, P > 2 lowers the max deviation for a slightly larger mean")
-    parser.add_argument("--max-error", type=float, metavar="E",
-                        help="fail (exit 1) when the max relative edge/diagonal length deviation exceeds E")
+    parser.add_argument("--max-error", type=float, metavar="E", default=DEFAULT_MAX_ERROR,
+                        help="fail (exit 1) when the max relative edge/diagonal length deviation exceeds E "
+                             f"(default {DEFAULT_MAX_ERROR:g})")
     parser.add_argument("--panel-id", metavar="ID", help="label written on the cut files (default: IN's name)")
     parser.add_argument("--crease-angle", type=float, default=None, metavar="DEG",
                         help="untagged panels: edges folded by more than DEG are creases (default: inferred)")
@@ -81,6 +91,22 @@ def _check_args(args) -> None:
             raise InputError("is a directory, not a file name", source=p)
 
 
+def _write_flat(flat, folded, assignment, path, header: str) -> None:
+    """FLAT by suffix; a .fold gets the folded panel as its fold state (flat + folded)."""
+    if str(path).lower().endswith(".fold"):
+        from fabkit.fold import FoldFrame, FoldModel
+        from fabkit.io.fold import save_fold
+
+        angle = assignment.edges_fold_angle
+        model = FoldModel.from_mesh(flat, assignment.edges_assignment, angle, title=header,
+                                    frames=(FoldFrame(folded.vertices, angle),))
+        save_fold(model, path)
+        return
+    from fabkit.io.save import save_panel
+
+    save_panel(flat, path, header=header)
+
+
 def run(args) -> int:
     import numpy as np
 
@@ -88,12 +114,11 @@ def run(args) -> int:
     from fabkit.cutfiles import crease_assignment, cut_pattern, dxf_document, svg_text
     from fabkit.errors import InputError
     from fabkit.io.atomic import atomic_path
-    from fabkit.io.obj import format_obj, load_obj
     from fabkit.unfold import develop
     from fabkit.unfold.plot import plot_unfold_error
 
     _check_args(args)
-    mesh = load_obj(args.input)
+    mesh, loaded = load_panel_for(args, args.input)
     with progress(args, f"unfolding ({args.method})", total=None):
         try:
             dev = develop(mesh, method=args.method, **({"norm": args.norm} if args.method == "isometric" else {}))
@@ -127,12 +152,14 @@ def run(args) -> int:
         "development": dev.summary(),
         "creases": {"source": assignment.source, **assignment.counts()},
         "units": {"mesh": "m", "cut_files": "mm"},
+        "unit": "m",
+        "loaded": loaded.to_report(),
     }
     # Every output goes to a temporary file first; all are renamed only when all were written.
     with contextlib.ExitStack() as stack:
         tmp = {k: stack.enter_context(atomic_path(v)) for k, v in outputs.items() if v}
-        Path(tmp["mesh"]).write_text(format_obj(dev.mesh(mesh), header=f"flat pattern of {args.input} "
-                                                f"({args.method}, metres, z = 0)"), encoding="utf-8")
+        _write_flat(dev.mesh(mesh), mesh, assignment, tmp["mesh"],
+                    f"flat pattern of {args.input} ({args.method}, metres, z = 0)")
         if args.dxf:
             dxf_document(pattern).saveas(tmp["dxf"])
         if args.svg:

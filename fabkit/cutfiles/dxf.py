@@ -1,6 +1,7 @@
 """DXF cut file (ezdxf) in millimetres: CUT, MOUNTAIN, VALLEY, SCORE and LABEL layers.
 
-The header declares the units ($INSUNITS = 4, millimetres; $MEASUREMENT = 1, metric). Outlines are
+The header declares the units ($INSUNITS = 4, millimetres; $MEASUREMENT = 1, metric) and the
+drawing's extents ($EXTMIN/$EXTMAX, $LIMMIN/$LIMMAX: the outline's bounding box). Outlines are
 closed LWPOLYLINEs, score lines open (or closed) LWPOLYLINEs, labels TEXT. Written atomically.
 """
 from __future__ import annotations
@@ -21,10 +22,17 @@ def dxf_document(pattern: CutPattern) -> "ezdxf.document.Drawing":
     doc = ezdxf.new("R2010", units=units.MM)
     doc.header["$INSUNITS"] = units.MM
     doc.header["$MEASUREMENT"] = 1
+    (x0, y0), (x1, y1) = pattern.extent.tolist()
+    doc.header["$EXTMIN"] = (x0, y0, 0.0)  # the drawing's extents, so viewers "zoom extents" right away
+    doc.header["$EXTMAX"] = (x1, y1, 0.0)
+    doc.header["$LIMMIN"] = (x0, y0)
+    doc.header["$LIMMAX"] = (x1, y1)
     for name, (aci, _, description) in LAYERS.items():
         layer = doc.layers.add(name, color=aci)
         layer.description = description
     msp = doc.modelspace()
+    msp.dxf.extmin, msp.dxf.extmax = (x0, y0, 0.0), (x1, y1, 0.0)  # ezdxf writes the header's from these
+    msp.dxf.limmin, msp.dxf.limmax = (x0, y0), (x1, y1)
     for loop in pattern.outlines:
         msp.add_lwpolyline(loop.tolist(), format="xy", close=True, dxfattribs={"layer": "CUT"})
     for layer, chains in pattern.polylines.items():

@@ -1,5 +1,9 @@
 """Readers and writers, with typed entry points (`load_obj`, `load_fold`, ...).
 
+Commands read panels through `load_panel` (any of .obj, .fold, .3dm, .svg; units, welding,
+winding and split quads handled and reported in a `LoadInfo`, see `fabkit.io.load`) and write them
+with `save_panel` (by suffix, see `fabkit.io.save`).
+
 Each entry point returns one type: `load_mesh` always a `PolyMesh` (from OBJ, or the key frame of a
 FOLD file), `load_fold` always a `FoldModel`. Writers are atomic (temporary file + rename).
 """
@@ -12,10 +16,24 @@ from fabkit.errors import InputError
 from fabkit.mesh import PolyMesh
 
 __all__ = ["load_mesh", "save_mesh", "load_obj", "save_obj", "load_fold", "save_fold", "export_mesh",
-           "MESH_SUFFIXES"]
+           "MESH_SUFFIXES", "load_panel", "save_panel"]
 
 #: suffixes `load_mesh` reads
 MESH_SUFFIXES = (".obj", ".fold")
+
+
+def load_panel(path: str | os.PathLike, units: str | None = None, state: str = "folded"):
+    """Any panel file -> `(PolyMesh in metres, LoadInfo)` (see `fabkit.io.load`)."""
+    from fabkit.io.load import load_panel as _load
+
+    return _load(path, units, state=state)
+
+
+def save_panel(mesh: PolyMesh, path: str | os.PathLike, header: str | None = None) -> None:
+    """`PolyMesh` -> .obj / .fold / .3dm / .ply / .stl / .glb by suffix (see `fabkit.io.save`)."""
+    from fabkit.io.save import save_panel as _save
+
+    _save(mesh, path, header)
 
 
 def load_obj(path: str | os.PathLike) -> PolyMesh:

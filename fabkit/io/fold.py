@@ -38,7 +38,8 @@ from fabkit.io.validate import check_coordinates
 from fabkit.io.obj import read_text
 from fabkit.mesh import validate_mesh
 
-__all__ = ["load_fold", "save_fold", "parse_fold", "fold_to_json", "fold_text", "UNIT_TO_METRES", "FOLD_SPEC"]
+__all__ = ["load_fold", "save_fold", "parse_fold", "fold_to_json", "fold_text", "UNIT_TO_METRES", "FOLD_SPEC",
+           "FLAVOURS"]
 
 FOLD_SPEC = 1.2
 WRITE_UNIT = "mm"
@@ -79,6 +80,12 @@ UNIT_TO_METRES: dict[str, decimal.Decimal] = {
 _POW10 = {"m": 0, "unit": 0, "cm": 2, "mm": 3, "um": 6, "nm": 9}
 
 _PREFIX = "fabkit:"
+#: edges fabkit holds as J (quad diagonals) are written as F with this 0/1 marker (flavour "compatible")
+_JOIN_KEY = "edges_fabkit:join"
+#: `save_fold` flavours: "compatible" (default) writes only the assignments Origami Simulator's importer
+#: knows (B M V F U C: J diagonals as F, marked in `edges_fabkit:join` so fabkit reads them back as J);
+#: "spec" writes J as the FOLD specification has it.
+FLAVOURS = ("compatible", "spec")
 _KEY_TOPOLOGY = ("edges_vertices", "faces_vertices")
 
 
@@ -214,8 +221,31 @@ def _key(kind: str, name: str) -> str:
     return name if ":" in name else f"{kind}_{_PREFIX}{name}"
 
 
-def _fold_parts(model: FoldModel) -> dict[str, Any]:
+def _dimension(V: np.ndarray) -> str:
+    return "2D" if len(V) == 0 or bool(np.all(V[:, 2] == 0.0)) else "3D"
+
+
+def _attributes(declared: tuple, V: np.ndarray, assignment: np.ndarray) -> list[str]:
+    """`frame_attributes` that match the content: the dimension measured from the coordinates (2D
+    when every z is 0), `cuts` / `joins` when C / J edges are written; other declared attributes kept
+    (declared 2D/3D/cuts/joins are replaced by what was measured)."""
+    measured = [_dimension(V)]
+    if np.any(assignment == "C"):
+        measured.append("cuts")
+    if np.any(assignment == "J"):
+        measured.append("joins")
+    replaced = {"2D", "3D", "cuts", "noCuts", "joins", "noJoins"}
+    return measured + [a for a in declared if a not in replaced]
+
+
+def _fold_parts(model: FoldModel, flavour: str = "compatible") -> dict[str, Any]:
     """The FOLD 1.2 top level, big arrays pre-encoded (millimetres, degrees)."""
+    if flavour not in FLAVOURS:
+        raise ValueError(f"unknown FOLD flavour {flavour!r}: use one of {', '.join(FLAVOURS)}")
+    assignment = model.edges_assignment
+    join = assignment == "J"
+    if flavour == "compatible" and np.any(join):
+        assignment = np.where(join, "F", assignment)
     d: dict[str, Any] = {
         "file_spec": FOLD_SPEC,
         "file_creator": "fabkit",
@@ -227,28 +257,29 @@ def _fold_parts(model: FoldModel) -> dict[str, Any]:
         d[_key("file", name)] = value
     if model.classes:
         d["frame_classes"] = list(model.classes)
-    if model.attributes:
-        d["frame_attributes"] = list(model.attributes)
+    d["frame_attributes"] = _attributes(model.attributes, model.vertices_coords, assignment)
     d["frame_unit"] = WRITE_UNIT
     d["vertices_coords"] = _coords_rows(model.vertices_coords)
     d["edges_vertices"] = _int_rows(model.edges_vertices.tolist())
-    d["edges_assignment"] = _Raw(json.dumps(model.edges_assignment.tolist(), separators=(",", ":")))
+    d["edges_assignment"] = _Raw(json.dumps(assignment.tolist(), separators=(",", ":")))
     d["edges_foldAngle"] = _angles_raw(model.edges_fold_angle)
     d["faces_vertices"] = _int_rows(model.faces_vertices)
     for kind, data in (("vertices", model.vertices_data), ("edges", model.edges_data), ("faces", model.faces_data)):
         for name, arr in data.items():
             d[_key(kind, name)] = _data_raw(arr)
+    if flavour == "compatible" and np.any(join):
+        d[_JOIN_KEY] = _data_raw(join.astype(np.int64))
     if model.frames:
-        d["file_frames"] = [_frame_parts(f) for f in model.frames]
+        d["file_frames"] = [_frame_parts(f, assignment) for f in model.frames]
     return d
 
 
-def _frame_parts(frame: FoldFrame) -> dict[str, Any]:
+def _frame_parts(frame: FoldFrame, assignment: np.ndarray) -> dict[str, Any]:
     d: dict[str, Any] = {
         "frame_parent": 0,
         "frame_inherit": True,
         "frame_classes": list(frame.classes),
-        "frame_attributes": list(frame.attributes),
+        "frame_attributes": _attributes(frame.attributes, frame.vertices_coords, assignment),
         "vertices_coords": _coords_rows(frame.vertices_coords),
     }
     if frame.edges_fold_angle is not None:
@@ -276,20 +307,20 @@ def _dump(d: dict[str, Any], indent: str = "") -> str:
     return "{\n" + ",\n".join(lines) + "\n" + indent + "}"
 
 
-def fold_text(model: FoldModel) -> str:
-    """The FOLD 1.2 text of a model (not validated; `save_fold` validates first)."""
-    return _dump(_fold_parts(model)) + "\n"
+def fold_text(model: FoldModel, flavour: str = "compatible") -> str:
+    """The FOLD 1.2 text of a model (not validated; `save_fold` validates first). See `FLAVOURS`."""
+    return _dump(_fold_parts(model, flavour)) + "\n"
 
 
-def fold_to_json(model: FoldModel) -> dict[str, Any]:
+def fold_to_json(model: FoldModel, flavour: str = "compatible") -> dict[str, Any]:
     """The FOLD 1.2 dictionary of a model, exactly as `save_fold` writes it (millimetres, degrees)."""
-    return json.loads(fold_text(model), parse_float=_Num)
+    return json.loads(fold_text(model, flavour), parse_float=_Num)
 
 
-def save_fold(model: FoldModel, path: str | os.PathLike) -> None:
-    """Validate `model` and write it as FOLD 1.2 (frame_unit mm, degrees) atomically."""
+def save_fold(model: FoldModel, path: str | os.PathLike, flavour: str = "compatible") -> None:
+    """Validate `model` and write it as FOLD 1.2 (frame_unit mm, degrees) atomically (see `FLAVOURS`)."""
     validate_fold_model(model, source=str(path))
-    text = fold_text(model)
+    text = fold_text(model, flavour)
     with atomic_write(path) as fh:
         fh.write(text)
 
@@ -346,12 +377,22 @@ def _index_rows(value: Any, key: str, width: int | None, source: str) -> list[li
     return rows
 
 
-def _assignments(value: Any, key: str, source: str) -> np.ndarray:
+def _assignments(value: Any, key: str, source: str, notes: list[str] | None = None) -> np.ndarray:
+    """`edges_assignment` -> letters; lower-case letters (written by some tools) are read as upper case
+    with a note."""
     rows = _list(value, key, source)
+    lower = 0
     for i, a in enumerate(rows):
+        if isinstance(a, str) and len(a) == 1 and a.islower() and a.upper() in ASSIGNMENTS:
+            lower += 1
+            continue
         if not isinstance(a, str) or a not in ASSIGNMENTS or len(a) != 1:
             raise InputError(f"{key}[{i}] is {_short(a)}: assignment must be one of B, M, V, F, J, U, C",
                              source=source)
+    if lower:
+        if notes is not None:
+            notes.append(f"{lower} lower-case edge assignments read as upper case")
+        rows = [a.upper() for a in rows]
     return np.array(rows, dtype="<U1").reshape(-1)
 
 
@@ -458,7 +499,8 @@ def _default_assignment(edges: np.ndarray, faces: list[list[int]]) -> np.ndarray
 
 def _namespaced(d: dict, kind: str, source: str) -> dict[str, np.ndarray]:
     prefix = f"{kind}_{_PREFIX}"
-    return {k[len(prefix):]: _data_array(v, k, source) for k, v in d.items() if k.startswith(prefix)}
+    return {k[len(prefix):]: _data_array(v, k, source) for k, v in d.items()
+            if k.startswith(prefix) and k != _JOIN_KEY}
 
 
 def _plane_rotation(V: np.ndarray, faces: list[list[int]]) -> tuple[np.ndarray | None, str]:
@@ -491,8 +533,12 @@ def _rotate(V: np.ndarray, R: np.ndarray) -> np.ndarray:
     return W
 
 
-def parse_fold(d: Any, source: str = "<fold>") -> FoldModel:
-    """A FOLD dictionary (as loaded from JSON) -> validated `FoldModel` in metres/radians."""
+def parse_fold(d: Any, source: str = "<fold>", *, repair: bool = False) -> FoldModel:
+    """A FOLD dictionary (as loaded from JSON) -> validated `FoldModel` in metres/radians.
+
+    `repair`: a minority of faces wound against the rest is turned (`fabkit.io.hygiene.orient`, said
+    in `notes`) instead of refused; a crease pattern wound clockwise throughout is still refused (its
+    M/V could be meant from either side)."""
     if not isinstance(d, dict):
         raise InputError(f"a FOLD file is a JSON object, got {type(d).__name__}", source=source)
     notes: list[str] = []
@@ -512,16 +558,34 @@ def parse_fold(d: Any, source: str = "<fold>") -> FoldModel:
         raise InputError("no faces_vertices (fabkit and Origami Simulator need faces)", source=source)
     V = _coords(d["vertices_coords"], "vertices_coords", unit, source)
     faces = _index_rows(d["faces_vertices"], "faces_vertices", None, source)
+    if repair and faces:
+        from fabkit.io.hygiene import orient
+
+        bad = [i for f in faces for i in f if not 0 <= i < len(V)]
+        if not bad:
+            try:
+                turned = orient(V, faces)
+            except MeshError:  # non-manifold or non-orientable: the validation below names the element
+                turned = None
+            if turned is not None and 0 < len(turned.flipped) < len(faces) / 2:  # a few faces against the rest: turn those
+                faces = turned.faces
+                notes.append(f"{len(turned.flipped)} faces turned so every face is counter-clockwise seen from "
+                             f"the front (first: face {int(turned.flipped[0])})")
     if "edges_vertices" in d:
         edges = np.array(_index_rows(d["edges_vertices"], "edges_vertices", 2, source), dtype=np.int64).reshape(-1, 2)
     else:
         edges = _edges_from_faces(faces)
         notes.append("no edges_vertices; edges derived from faces_vertices")
     if "edges_assignment" in d:
-        assignment = _assignments(d["edges_assignment"], "edges_assignment", source)
+        assignment = _assignments(d["edges_assignment"], "edges_assignment", source, notes)
     else:
         assignment = _default_assignment(edges, faces)
         notes.append("no edges_assignment; one-face edges set to B, others to U")
+    if _JOIN_KEY in d:  # fabkit's own quad diagonals, written as F for other tools: J again
+        join = _data_array(d[_JOIN_KEY], _JOIN_KEY, source)
+        if join.shape != assignment.shape:
+            raise InputError(f"{_JOIN_KEY} has {len(join)} entries for {len(assignment)} edges", source=source)
+        assignment = np.where((join == 1) & (assignment == "F"), "J", assignment)
     angle_key = "edges_foldAngle" if "edges_foldAngle" in d else "edges_foldAngles" if "edges_foldAngles" in d else None
     if angle_key == "edges_foldAngles":
         notes.append("edges_foldAngles (FOLD 1.0 name) read as edges_foldAngle")
@@ -602,8 +666,9 @@ def _parse_frames(d: dict, V: np.ndarray, unit: str, faces: list, edges: np.ndar
     return frames
 
 
-def load_fold(path: str | os.PathLike) -> FoldModel:
-    """Read a FOLD file into a validated `FoldModel` (metres, radians; see module docstring)."""
+def load_fold(path: str | os.PathLike, *, repair: bool = False) -> FoldModel:
+    """Read a FOLD file into a validated `FoldModel` (metres, radians; see module docstring);
+    `repair` as in `parse_fold`."""
     source = str(path)
     text = read_text(path, "FOLD")
     if not text.strip():
@@ -617,7 +682,7 @@ def load_fold(path: str | os.PathLike) -> FoldModel:
     except RecursionError:
         raise InputError("JSON nested too deeply to be a FOLD file", source=source) from None
     try:
-        return parse_fold(d, source)
+        return parse_fold(d, source, repair=repair)
     except RecursionError:
         raise InputError("a field is nested too deeply (FOLD arrays are at most two levels)", source=source) from None
 

@@ -10,7 +10,9 @@ merges and triangulates by default) and none keeps our per-face tags. What we ke
       # fabkit face_data strip int64 [0, 0, 1, 1]
       # fabkit vertex_data pinned bool [true, false, ...]
 
-  (`<kind> <name> <numpy dtype> <JSON array>`).
+  (`<kind> <name> <numpy dtype> <JSON array>`);
+- the unit of the coordinates as `# fabkit unit m` (fabkit always writes metres; `fabkit.io.load`
+  reads the line, so a file scaled to metres once is not scaled again).
 
 What we read: `v` (extra values such as w or colours ignored), `f` with `v`, `v/vt`, `v//vn`,
 `v/vt/vn` corners and negative (relative) indices, line continuations (`\\`), inline comments; texture,
@@ -31,7 +33,7 @@ from fabkit.io.atomic import atomic_write
 from fabkit.io.validate import check_coordinates
 from fabkit.mesh import PolyMesh, validate_mesh
 
-__all__ = ["load_obj", "save_obj", "parse_obj"]
+__all__ = ["load_obj", "save_obj", "parse_obj", "read_text", "format_obj", "locate_obj_error"]
 
 #: OBJ statements we accept and ignore (geometry we do not use, grouping, materials, free-form).
 _IGNORED = frozenset("""vt vn vp l p g o s mg usemtl mtllib maplib usemap lod trace_obj shadow_obj bevel
@@ -163,7 +165,7 @@ def _check_counts(entries: dict, count: int, kind: str, source: str) -> dict[str
     return out
 
 
-def _locate(message: str, face_lines: list[int], vertex_lines: list[int]) -> str:
+def locate_obj_error(message: str, face_lines: list[int], vertex_lines: list[int]) -> str:
     """Add the OBJ line to the first 'face k' / 'vertex k' a mesh error mentions."""
     def face(m: re.Match) -> str:
         k = int(m.group(1))
@@ -211,7 +213,7 @@ def load_obj(path: str | os.PathLike) -> PolyMesh:
         mesh = PolyMesh(V, faces, face_data=face_data, vertex_data=vertex_data, validate=False)
         mesh.warnings = validate_mesh(mesh, source=source)
     except MeshError as exc:
-        raise MeshError(_locate(exc.message, face_lines, vertex_lines), source=source) from None
+        raise MeshError(locate_obj_error(exc.message, face_lines, vertex_lines), source=source) from None
     return mesh
 
 
@@ -227,7 +229,8 @@ def _data_line(kind: str, name: str, arr: np.ndarray) -> str:
 
 def format_obj(mesh: PolyMesh, header: str | None = None) -> str:
     """The OBJ text of a mesh (see module docstring)."""
-    out = ["# fabkit OBJ: faces and vertex order as in the model; '# fabkit' lines carry per-element data\n"]
+    out = ["# fabkit OBJ: faces and vertex order as in the model; '# fabkit' lines carry per-element data\n",
+           "# fabkit unit m\n"]
     if header:
         out.extend(f"# {line}\n" for line in header.splitlines())
     out.extend(f"v {x!r} {y!r} {z!r}\n" for x, y, z in mesh.vertices.tolist())

@@ -1,4 +1,4 @@
-"""One self-contained HTML page for a demo (or any pipeline) run: numbers, plots, renders, links.
+"""One self-contained HTML page for a demo or any other run folder: numbers, plots, renders, links.
 
 No network: every picture is embedded as a base64 data URI, the CSS is inline, and the plots are
 drawn here with matplotlib (Agg) from the stages' own JSON reports and output files.
@@ -178,7 +178,8 @@ def _numbers_table(report: dict, limit: int = 40) -> str:
 
 
 def write_report_html(out: Path, summary: dict) -> Path:
-    """Write `out/report.html` for a run summarised by `summary` (fabkit.demo/1)."""
+    """Write `out/report.html` for a run summarised by `summary` (`fabkit.demo/1`, or the
+    `fabkit.run/1` summary `fabkit.report.run.summarize_run` makes for any run folder)."""
     out = Path(out)
     stages = summary.get("stages", [])
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>fabkit report</title>"
@@ -194,18 +195,24 @@ def write_report_html(out: Path, summary: dict) -> Path:
                      f"<td>{s.get('seconds', 0):.2f} s</td><td>{html.escape(s.get('message') or '')}</td></tr>")
     parts.append("</table>")
 
-    by_name = {s["name"]: s for s in stages}
+    def first(kind: str) -> dict:
+        return next((s for s in stages if s["name"].split(" ")[0] == kind), {})
+
     figures = []
-    relax = by_name.get("relax", {}).get("report") or {}
+    relax = first("relax").get("report") or {}
     figures.append(_img(plot_relax_history(relax), "max angle defect and planarity per iteration"))
-    for fname, caption in (("unfold_error.png", "flat pattern coloured by relative edge-length deviation"),
-                           ("fold_angles.png", "fold angle per crease vs fold state"),
-                           ("check.png", "MuJoCo cell at a waypoint")):
-        f = out / fname
+    captions = {"unfold_error.png": "flat pattern coloured by relative edge-length deviation",
+                "fold_angles.png": "fold angle per crease vs fold state", "check.png": "MuJoCo cell at a waypoint"}
+    known = [out / n for n in captions]
+    others = sorted(f for f in out.glob("*.png") if f not in known)
+    for f in known + others:  # the demo's pictures first, then every other picture in the folder
         if f.exists():
-            figures.append(_img(f.read_bytes(), caption))
-    path_json = _read_json(out / "path.json")
-    check_json = _read_json(out / "check.json")
+            figures.append(_img(f.read_bytes(), captions.get(f.name, f.name)))
+    toolpath_out = (first("toolpath").get("report") or {}).get("output")
+    path_json = _read_json(out / Path(toolpath_out).name) if toolpath_out else _read_json(out / "path.json")
+    check_json = first("check").get("report") or {}
+    if "along_path" not in check_json:  # a stage summary without the per-waypoint numbers: the file has them
+        check_json = _read_json(out / "check.json") or check_json
     figures.append(_img(plot_joints(path_json, check_json), "joint angles and speeds along the toolpath"))
     figures.append(_img(plot_clearance(check_json), "clearance along the path"))
     figures = [f for f in figures if f]
