@@ -83,9 +83,13 @@ def shape_size(shape) -> list[float]:
     return size + [0.0] * (3 - len(size))
 
 
-def _add_primitive(body, name: str, shape, **kw):
+def add_primitive(body, name: str, shape, **kw):
+    """Add a cell primitive (`robot.cell.Shape`, pose in the body's frame) as a geom of an MjSpec body."""
     pos, quat = _pose_pos_quat(shape.pose)
     return body.add_geom(name=name, type=_GEOM_TYPES[shape.kind], size=shape_size(shape), pos=pos, quat=quat, **kw)
+
+
+_add_primitive = add_primitive
 
 
 def build_cell_model(cell, panel_state: PanelModel | None = None, *, state: float = 0.0):
