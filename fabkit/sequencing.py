@@ -166,8 +166,9 @@ def _verify(plan_phases, seq, model: HoldModel, rows: dict, between: int) -> lis
 
 
 def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, frames: int = 12, jig: bool = True,
-               choose_face=None, between: int = 1) -> list[FoldPlan]:
+               choose_face=None, between: int = 1, first_ok: bool = False) -> list[FoldPlan]:
     """Every plan strategy that fits `arms` (module docstring), verified, best score first.
+    `first_ok`: stop at the first plan that holds (strategies are tried best score first).
 
     `choose_face(faces) -> face or None`: picks the grip/jig face among a strip's faces (e.g. the best
     cup region from `fabkit.grip_footprint`); default the strip's middle-row face.
@@ -191,6 +192,8 @@ def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, fr
         ph = Phase(tuple(sorted(rows)), (clamp,), tuple((a, pick[k]) for a, k in enumerate(others)),
                    (0, seq.n_states - 1), ())
         plans.append(_plan("together", arms, [ph], seq, solver, rows, between))
+        if first_ok and plans[-1].ok:
+            return plans
     # one crease at a time, outward from the clamp
     order = sorted(rows, key=lambda r: (min(abs(r - cs), abs(r + 1 - cs)), r))
     steps = [driven[np.isin(driven, rows[r])] for r in order]
@@ -245,4 +248,4 @@ def _plan(strategy, arms, phases, seq, solver, rows, between) -> FoldPlan:
 def plan_fold_sequence(flat, target, *, arms: int = 1, **options) -> FoldPlan:
     """The best verified plan for `arms` (see `fold_plans`); when none holds every crease, the best
     failing one (its `problems` say why)."""
-    return fold_plans(flat, target, arms=arms, **options)[0]
+    return fold_plans(flat, target, arms=arms, first_ok=True, **options)[0]

@@ -16,9 +16,15 @@ def _middle(flat):
     return {int(np.asarray(flat.face_data["strip"])[f]): int(f) for f in mid}
 
 
-def test_trifold_two_arms_one_per_wing():
+@pytest.fixture(scope="module")
+def trifold_two_arms():
     flat, target = trifold_pair()
-    plan = plan_fold_sequence(flat, target, arms=2, frames=4)
+    return plan_fold_sequence(flat, target, arms=2, frames=4)
+
+
+def test_trifold_two_arms_one_per_wing(trifold_two_arms):
+    flat, _ = trifold_pair()
+    plan = trifold_two_arms
     assert plan.ok and plan.strategy == "together" and plan.regrips == 0
     (ph,) = plan.phases
     mids = _middle(flat)
@@ -28,6 +34,7 @@ def test_trifold_two_arms_one_per_wing():
     assert plan.held_per_state() == [ph.held_faces] * plan.sequence.n_states
 
 
+@pytest.mark.slow
 def test_trifold_one_arm_has_no_plan_that_holds_every_crease():
     """The tri-fold's curved creases are coupled: folding one crease while the other wing is held
     flat bends the middle strip and moves the held wing, so one arm (with a jig) cannot do it."""
@@ -40,10 +47,10 @@ def test_trifold_one_arm_has_no_plan_that_holds_every_crease():
     assert not none.ok and "needs 2 arms" in none.problems[0] and none.phases == ()
 
 
-def test_demo_program_in_plan_form_is_refused():
+def test_demo_program_in_plan_form_is_refused(trifold_two_arms):
     """The demo's program (clamp + one grip on one outer strip, both creases folding) names crease 0."""
-    flat, target = trifold_pair()
-    plan = plan_fold_sequence(flat, target, arms=2, frames=4)
+    flat, _ = trifold_pair()
+    plan = trifold_two_arms
     model = HoldModel.from_sequence(plan.sequence)
     mids = _middle(flat)
     r = hold_analysis(model, plan.sequence.angles[2], [mids[1], mids[2]])
@@ -65,10 +72,11 @@ def test_straight_creases_one_arm_regrip_with_a_jig():
     assert two.ok and two.strategy == "together" and two.score < plan.score
 
 
+@pytest.mark.slow
 def test_reflect_two_creases():
     flat, target = reflect_two_crease_pair()
-    assert plan_fold_sequence(flat, target, arms=2, frames=4).ok
-    seq1 = plan_fold_sequence(flat, target, arms=1, frames=4)
+    assert plan_fold_sequence(flat, target, arms=2, frames=3).ok
+    seq1 = plan_fold_sequence(flat, target, arms=1, frames=3)
     assert not seq1.ok and any("set in an earlier phase" in p or "coupled" in p for p in seq1.problems)
 
 
