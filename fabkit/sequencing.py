@@ -27,7 +27,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fabkit.errors import InputError
-from fabkit.holds import HoldModel, HoldReport, holds_along
+from fabkit.holds import HoldModel, holds_along
+from fabkit.placement import choose_clamp_face
 from fabkit.refold import RefoldSolver
 from fabkit.refold.sequence import build_schedule
 
@@ -114,17 +115,14 @@ def _strips(flat, panel) -> tuple[np.ndarray, dict]:
 
 
 def _face_in_strip(flat, strip: np.ndarray, k: int, choose) -> int:
+    """`choose(faces)` if given and it picks one, else the strip's middle-row face nearest the panel's
+    centroid (any face without tags), ties by coordinates: independent of vertex and face order."""
     faces = np.flatnonzero(strip == k)
     if choose is not None:
         f = choose(faces)
         if f is not None:
             return int(f)
-    if "middle" in flat.face_data:
-        mid = faces[np.asarray(flat.face_data["middle"])[faces] != 0]
-        if len(mid):
-            return int(mid[0])
-    c = flat.face_centroids[faces]
-    return int(faces[np.argmin(np.linalg.norm(c - c.mean(0), axis=1))])
+    return choose_clamp_face(flat, strip=k)
 
 
 def _verify(plan_phases, seq, model: HoldModel, rows: dict, between: int) -> list[Phase]:
@@ -166,15 +164,20 @@ def _verify(plan_phases, seq, model: HoldModel, rows: dict, between: int) -> lis
 
 
 def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, frames: int = 12, jig: bool = True,
-               choose_face=None, between: int = 1, first_ok: bool = False) -> list[FoldPlan]:
+               choose_face=None, cup_radius: float | None = None, between: int = 1,
+               first_ok: bool = False) -> list[FoldPlan]:
     """Every plan strategy that fits `arms` (module docstring), verified, best score first.
     `first_ok`: stop at the first plan that holds (strategies are tried best score first).
+    `cup_radius` [m]: grip and jig faces are where the cup's disc fits on a planar region of the strip
+    in every state (`fabkit.grip_footprint`, best-ranked region); a strip with none fails the plan.
 
     `choose_face(faces) -> face or None`: picks the grip/jig face among a strip's faces (e.g. the best
     cup region from `fabkit.grip_footprint`); default the strip's middle-row face.
     """
     if arms not in (1, 2):
         raise ValueError(f"arms must be 1 or 2, got {arms}")
+    if clamp_face is None and "strip" in flat.face_data:
+        clamp_face = choose_clamp_face(flat)   # order-independent (refold's default takes the first tagged)
     solver = RefoldSolver(flat, target, fixed_face=clamp_face)
     strip, rows = _strips(flat, solver.panel)
     if not rows:
@@ -183,6 +186,9 @@ def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, fr
     cs = int(strip[clamp])
     driven, _ = solver.driven_hinges("middle-row" if "middle" in flat.face_data else "all")
     pick = {k: _face_in_strip(flat, strip, k, choose_face) for k in np.unique(strip)}
+    cup_problems: list[str] = []
+    if cup_radius is not None:
+        pick, cup_problems = _cup_picks(solver, flat, strip, driven, frames, cup_radius, pick)
     plans = []
     others = [int(k) for k in np.unique(strip) if k != cs]
     # together: every strip beyond the clamp's held by an arm
@@ -192,7 +198,7 @@ def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, fr
         ph = Phase(tuple(sorted(rows)), (clamp,), tuple((a, pick[k]) for a, k in enumerate(others)),
                    (0, seq.n_states - 1), ())
         plans.append(_plan("together", arms, [ph], seq, solver, rows, between))
-        if first_ok and plans[-1].ok:
+        if first_ok and plans[-1].ok and not cup_problems:
             return plans
     # one crease at a time, outward from the clamp
     order = sorted(rows, key=lambda r: (min(abs(r - cs), abs(r + 1 - cs)), r))
@@ -220,6 +226,9 @@ def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, fr
                                 tuple(jigs)))
             done.append(r)
         plans.append(_plan("one crease at a time", arms, phases, seq, solver, rows, between))
+    if cup_problems:
+        plans = [FoldPlan(p.strategy, p.arms, p.phases, p.sequence, p.regrips, p.score,
+                          p.problems + tuple(cup_problems)) for p in plans]
     if not plans:
         need = len(others)
         plans.append(FoldPlan("none", arms, (), None, 0, (0, 0, 0),
@@ -228,6 +237,25 @@ def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, fr
                                "hold the strips still flat",)))
     plans.sort(key=lambda p: (not p.ok, p.score))
     return plans
+
+
+def _cup_picks(solver, flat, strip, driven, frames, cup_radius, pick):
+    """Grip face per strip from the cup footprint on the all-together fold states."""
+    from fabkit.grip_footprint import grip_candidates
+
+    F, st = build_schedule(solver.panel, flat, driven, None, frames)
+    seq = solver.solve(F, driven, st, check_intersections=False)
+    out, problems = dict(pick), []
+    for k in pick:
+        faces = np.flatnonzero(strip == k)
+        cands = grip_candidates(seq, cup_radius, faces=faces)
+        good = [c for c in cands if c.ok and c.face in faces]
+        if good:
+            out[k] = good[0].face
+        else:
+            why = cands[0].problem if cands else "no face"
+            problems.append(f"strip {k} has no face region for the {2000 * cup_radius:.0f} mm cup: {why}")
+    return out, problems
 
 
 def _plan(strategy, arms, phases, seq, solver, rows, between) -> FoldPlan:

@@ -87,3 +87,31 @@ def test_refuses_untagged_panels_and_bad_arms():
         plan_fold_sequence(plain, PolyMesh(target.vertices, target.faces_list()))
     with pytest.raises(ValueError, match="arms"):
         plan_fold_sequence(flat, target, arms=3)
+
+
+def test_cup_footprint_picks_the_grip_regions(trifold_two_arms):
+    """With the 70 mm cup the grips go to faces under the disc of each outer strip's planar region."""
+    flat, target = trifold_pair()
+    plan = plan_fold_sequence(flat, target, arms=2, frames=4, cup_radius=0.035)
+    assert plan.ok
+    strip = np.asarray(flat.face_data["strip"])
+    grips = dict(plan.phases[0].grips)
+    assert {int(strip[grips[0]]), int(strip[grips[1]])} == {0, 2}
+    huge = plan_fold_sequence(flat, target, arms=2, frames=4, cup_radius=0.2)
+    assert not huge.ok and any("no face region for the 400 mm cup" in p for p in huge.problems)
+
+
+def test_permuted_faces_give_the_same_plan():
+    flat, target = letter_pair(120.0)
+    rng = np.random.default_rng(5)
+    order = rng.permutation(flat.n_faces)
+    fd = {k: np.asarray(v)[order] for k, v in flat.face_data.items()}
+    faces = [flat.face(int(f)).tolist() for f in order]
+    pf, pt = PolyMesh(flat.vertices, faces, face_data=fd), PolyMesh(target.vertices, faces, face_data=fd)
+    a = plan_fold_sequence(flat, target, arms=1, frames=3)
+    b = plan_fold_sequence(pf, pt, arms=1, frames=3)
+    assert a.ok and b.ok and len(a.phases) == len(b.phases)
+    for pa, pb in zip(a.phases, b.phases):
+        assert pa.creases == pb.creases
+        assert [int(order[f]) for f in pb.clamped_faces] == list(pa.clamped_faces)
+        assert [(arm, int(order[f])) for arm, f in pb.grips] == list(pa.grips)
