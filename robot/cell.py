@@ -129,6 +129,12 @@ class Cell:
     limits: Limits
     source: str
     clamp: Clamp | None = None
+    extra_arms: tuple[tuple[str, RobotMount], ...] = ()  # (name, arm) of further arms, same tool
+
+    @property
+    def arms(self) -> tuple[tuple[str, RobotMount], ...]:
+        """Every arm as (name, mount): the `[robot]` arm is "a", then `[[arms]]` by their names."""
+        return (("a", self.robot),) + self.extra_arms
 
     @property
     def model(self) -> URModel:
@@ -259,6 +265,27 @@ def _shape(r: _Reader, default_name: str, need_name: bool) -> Shape:
     return Shape(name=name, kind=kind, pose=pose, size=size)
 
 
+def _mount(rr: _Reader) -> RobotMount:
+    model = rr.string("model", choices=tuple(MODELS))
+    urm = get_model(model)
+    base_pose = rr.pose("base_pose")
+    home = rr.vector("home", 6, required=False, default=[0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0],
+                     unit="rad")
+    for i, q in enumerate(home):
+        if not urm.q_min[i] <= q <= urm.q_max[i]:
+            rr.fail("home", f"joint {i + 1} = {q:.12g} rad is outside [{urm.q_min[i]:.6g}, {urm.q_max[i]:.6g}]")
+    return RobotMount(model, base_pose, home)
+
+
+def _extra_arm(r: _Reader) -> tuple[str, RobotMount]:
+    name = r.string("name")
+    if not name.isidentifier() or not name.islower():
+        r.fail("name", f"{name!r} must be a lower-case identifier (it prefixes the arm's MuJoCo names)")
+    mount = _mount(r)
+    r.done()
+    return name, mount
+
+
 def _clamp(r: _Reader, obstacle_names: list[str]) -> Clamp:
     pose = r.pose("pose")
     raw = r.raw("footprint")
@@ -318,6 +345,11 @@ def parse_cell(data: dict, source: str) -> Cell:
         if n in names[:i]:
             raise InputError(f"obstacles[{i}].name: {n!r} is used twice", source=source)
     clamp = _clamp(top.table_("clamp"), names) if top.has("clamp") else None
+    extra = tuple(_extra_arm(a) for a in top.tables("arms"))
+    arm_names = ["a"] + [n for n, _ in extra]
+    for i, n in enumerate(arm_names):
+        if n in arm_names[:i]:
+            raise InputError(f"arms[{i - 1}].name: {n!r} is used twice (the [robot] arm is \"a\")", source=source)
 
     lr = top.table_("limits")
     limits = Limits(
@@ -327,14 +359,16 @@ def parse_cell(data: dict, source: str) -> Cell:
         joint_accel=lr.number("joint_accel", lo=0.0, lo_open=True, hi=MAX_JOINT_ACCEL, unit="rad/s^2"),
         clearance=lr.number("clearance", lo=0.0, hi=MAX_CLEARANCE, unit="m"),
     )
-    for i, (v, vmax) in enumerate(zip(limits.joint_speed, urm.joint_speed_max)):
-        if v > vmax + SPEED_SLACK:
-            lr.fail("joint_speed", f"joint {i + 1} = {v:.12g} rad/s exceeds the {model}'s {vmax:.6g} rad/s")
+    for arm_model in dict.fromkeys([model] + [m.model for _, m in extra]):
+        for i, (v, vmax) in enumerate(zip(limits.joint_speed, get_model(arm_model).joint_speed_max)):
+            if v > vmax + SPEED_SLACK:
+                lr.fail("joint_speed", f"joint {i + 1} = {v:.12g} rad/s exceeds the {arm_model}'s {vmax:.6g} rad/s")
     lr.done()
     top.done()
     return Cell(name=name, description=description, robot=RobotMount(model, base_pose, home),
                 tool=Tool(tcp=tcp, shapes=shapes, grip_output=grip, grip_output_kind=kind, cup_radius=cup),
-                fixture=fixture, obstacles=obstacles, limits=limits, source=source, clamp=clamp)
+                fixture=fixture, obstacles=obstacles, limits=limits, source=source, clamp=clamp,
+                extra_arms=extra)
 
 
 def load_cell(path: str | Path) -> Cell:
