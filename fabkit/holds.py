@@ -45,7 +45,8 @@ from fabkit.mesh import MeshTopology
 from fabkit.refold.geometry import build_face_tree, vertex_positions
 from fabkit.refold.kinematics import build_vertex_loops, loop_closure
 
-__all__ = ["HoldModel", "HoldReport", "crease_rows", "hold_analysis", "holds_along", "RANK_TOL",
+__all__ = ["HoldModel", "HoldReport", "SecondState", "crease_rows", "hold_analysis", "holds_along", "second_state",
+           "RANK_TOL",
            "FLAT_STATE_ANGLE", "MOTION_TOL", "PLANAR_DIAGONAL_ANGLE"]
 
 #: Singular values of the dimensionless hold matrix at or below this count as zero (module docstring).
@@ -144,6 +145,28 @@ class HoldModel:
 
 
 @dataclass(frozen=True)
+class SecondState:
+    """Another rigid-fold state with the same holds, for an unheld crease `row`: Newton from the wing
+    unfolded (the crease at 0) with everything outside the wing fixed. `exact` when its loop
+    residual is at Newton's tolerance; `residual` [rad] otherwise says how far it misses;
+    `wing_move_m` largest vertex distance from the given state; `crease_deg` (min, max) of the
+    crease's angles there."""
+
+    row: int
+    exact: bool
+    residual: float
+    wing_move_m: float
+    crease_deg: tuple[float, float]
+
+    def describe(self) -> str:
+        lo, hi = self.crease_deg
+        where = f"crease {self.row} at {lo:.1f}..{hi:.1f} deg, the wing {self.wing_move_m * 1000:.0f} mm away"
+        if self.exact:
+            return f"a second state with the same holds: {where} (loop residual {self.residual:.1g} rad)"
+        return f"the nearest other state found: {where}, missing loop closure by {self.residual:.2g} rad"
+
+
+@dataclass(frozen=True)
 class HoldReport:
     """Verdict for one state: `ok` iff no crease is unheld and (unless `flat`) nullity is 0.
 
@@ -165,12 +188,16 @@ class HoldReport:
     sigma_zero: float
     flat: bool
     problems: tuple[str, ...]
+    second_states: tuple[SecondState, ...] = ()
 
     def to_json(self) -> dict:
         return {"ok": self.ok, "held_faces": list(self.held_faces), "unheld_creases": list(self.unheld_creases),
                 "free_creases": list(self.free_creases), "free_hinges": list(self.free_hinges), "rank": self.rank,
                 "nullity": self.nullity, "columns": self.columns, "sigma_min": self.sigma_min,
-                "sigma_zero": self.sigma_zero, "flat": self.flat, "problems": list(self.problems)}
+                "sigma_zero": self.sigma_zero, "flat": self.flat, "problems": list(self.problems),
+                "second_states": [{"crease": x.row, "exact": x.exact, "residual_rad": x.residual,
+                                   "wing_move_m": x.wing_move_m, "crease_deg": list(x.crease_deg)}
+                                  for x in self.second_states]}
 
 
 def unheld_creases(model: HoldModel, held_tris: np.ndarray) -> list[tuple[int, np.ndarray]]:
@@ -236,9 +263,35 @@ def hold_matrix(model: HoldModel, rho: np.ndarray, held_tris: np.ndarray, V: np.
     return np.vstack(rows)[:, model.hinges]
 
 
-def hold_analysis(model: HoldModel, rho, held_faces, *, tol: float = RANK_TOL) -> HoldReport:
+def second_state(model: HoldModel, rho, row: int, wing_faces) -> SecondState:
+    """Look for another state of the unheld wing `wing_faces` beyond crease `row` with everything else
+    (so every held face) where it is: refold's minimum-norm Newton over the crease's and the wing's
+    hinges, started with the crease unfolded. A converged result is a certificate that the holds
+    do not fix the wing."""
+    from fabkit.refold.kinematics import JacobianPattern, MinNormSolver, project_to_constraints
+
+    rho = np.asarray(rho, np.float64)
+    wing = np.flatnonzero(np.isin(model.tri_face, np.asarray(wing_faces)))
+    ef = model.topology.edge_faces
+    inside = np.flatnonzero(np.isin(ef[:, 0], wing) & np.isin(ef[:, 1], wing))
+    free = np.union1d(np.intersect1d(inside, model.hinges), model.rows[row])
+    guess = rho.copy()
+    guess[model.rows[row]] = 0.0
+    res = project_to_constraints(model.loops, guess, rho, JacobianPattern(model.loops, free), MinNormSolver("direct"),
+                                 tol=1e-13, max_iter=60)
+    V0 = vertex_positions(model.tree, model.flat_vertices, rho)
+    V1 = vertex_positions(model.tree, model.flat_vertices, res.rho)
+    ang = np.degrees(res.rho[model.rows[row]])
+    return SecondState(row=int(row), exact=bool(res.converged), residual=float(res.residual),
+                       wing_move_m=float(np.linalg.norm(V1 - V0, axis=1).max()),
+                       crease_deg=(float(ang.min()), float(ang.max())))
+
+
+def hold_analysis(model: HoldModel, rho, held_faces, *, tol: float = RANK_TOL,
+                  find_second_states: bool = False) -> HoldReport:
     """Do the faces `held_faces` (polygon ids: clamp, each gripper, any jig) fix the panel at hinge
-    angles `rho` (E,)? See the module docstring for both tests."""
+    angles `rho` (E,)? See the module docstring for both tests. `find_second_states`: for every
+    unheld crease also look for the other state of its wing (`second_state`) and name it."""
     held_faces = tuple(sorted(set(int(f) for f in held_faces)))
     if not held_faces:
         raise ValueError("no held faces: something must hold the panel")
@@ -246,10 +299,15 @@ def hold_analysis(model: HoldModel, rho, held_faces, *, tol: float = RANK_TOL) -
     held_tris = model.triangles_of(held_faces)
     problems = []
     cut = unheld_creases(model, held_tris)
+    seconds = []
     for row, faces in cut:
-        problems.append(f"{model.crease_name(row)} is folded by nothing held: faces "
-                        f"{faces[:6].tolist()}{' ...' if len(faces) > 6 else ''} beyond it hold no clamp, "
-                        "gripper or jig")
+        msg = (f"{model.crease_name(row)} is folded by nothing held: faces "
+               f"{faces[:6].tolist()}{' ...' if len(faces) > 6 else ''} beyond it hold no clamp, gripper or jig")
+        if find_second_states:
+            seconds.append(second_state(model, rho, row, faces))
+            if seconds[-1].wing_move_m > 1e-6:
+                msg += f"; {seconds[-1].describe()}"
+        problems.append(msg)
     A = hold_matrix(model, rho, held_tris)
     sv, N = _null_space(A, tol)
     rank = int(np.sum(sv > tol))
@@ -267,7 +325,7 @@ def hold_analysis(model: HoldModel, rho, held_faces, *, tol: float = RANK_TOL) -
     return HoldReport(ok=not problems, held_faces=held_faces, unheld_creases=tuple(r for r, _ in cut),
                       free_creases=free_rows, free_hinges=tuple(int(e) for e in moving), rank=rank,
                       nullity=int(nullity), columns=int(A.shape[1]), sigma_min=sigma_min, sigma_zero=sigma_zero,
-                      flat=flat, problems=tuple(problems))
+                      flat=flat, problems=tuple(problems), second_states=tuple(seconds))
 
 
 def _null_space(A: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:

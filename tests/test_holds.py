@@ -141,3 +141,28 @@ def test_bad_input():
     with pytest.raises(ValueError, match="not a face"):
         hold_analysis(model, seq.angles[1], [10_000])
     assert crease_rows(np.full(5, -1), np.array(["crease"] * 5)) == {}
+
+
+def test_second_state_of_the_unheld_wing():
+    """Reflect panel: the wing beyond the unheld crease has an exact second state with the same holds
+    (the crease unfolded); on the relaxed tri-fold the nearest one misses loop closure slightly."""
+    flat, target = reflect_two_crease_pair()
+    seq = refold(flat, target, frames=4)
+    model = HoldModel.from_sequence(seq)
+    mids = _middle_faces(flat)
+    r = hold_analysis(model, seq.angles[3], [mids[1], mids[2]], find_second_states=True)
+    (x,) = r.second_states
+    assert x.row == 0 and x.exact and x.residual < 1e-12
+    assert abs(x.crease_deg[0]) < 1e-6 and abs(x.crease_deg[1]) < 1e-6 and x.wing_move_m > 0.2
+    assert "a second state with the same holds" in r.problems[0]
+    assert r.to_json()["second_states"][0]["exact"] is True
+
+
+def test_trifold_nearest_other_state(trifold):
+    flat, seq, model = trifold
+    mids = _middle_faces(flat)
+    r = hold_analysis(model, seq.angles[-1], [mids[1], mids[2]], find_second_states=True)
+    (x,) = r.second_states
+    assert not x.exact and x.residual < 1e-3            # the issue's mirror state: edge lengths kept to 4e-5
+    assert 0.07 < x.wing_move_m < 0.09 and max(abs(v) for v in x.crease_deg) < 1.0
+    assert "nearest other state" in r.problems[0]
