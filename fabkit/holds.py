@@ -46,7 +46,7 @@ from fabkit.refold.geometry import build_face_tree, vertex_positions
 from fabkit.refold.kinematics import build_vertex_loops, loop_closure
 
 __all__ = ["HoldModel", "HoldReport", "SecondState", "crease_rows", "hold_analysis", "holds_along", "second_state",
-           "RANK_TOL",
+           "hold_model_from_fold", "RANK_TOL",
            "FLAT_STATE_ANGLE", "MOTION_TOL", "PLANAR_DIAGONAL_ANGLE"]
 
 #: Singular values of the dimensionless hold matrix at or below this count as zero (module docstring).
@@ -198,6 +198,45 @@ class HoldReport:
                 "second_states": [{"crease": x.row, "exact": x.exact, "residual_rad": x.residual,
                                    "wing_move_m": x.wing_move_m, "crease_deg": list(x.crease_deg)}
                                   for x in self.second_states]}
+
+
+def hold_model_from_fold(model, source: str | None = None) -> tuple[HoldModel, np.ndarray]:
+    """`(HoldModel, angles (S, E))` from a triangulated `fabkit.fold.FoldModel` as `fabkit refold`
+    writes it (edges_fabkit:kind/crease, faces_fabkit:polygon, file_data fabkit:fixed_triangle);
+    `angles` are the frames' fold angles in the model's edge order (radians, valley +)."""
+    from types import SimpleNamespace
+
+    from fabkit.errors import InputError
+    from fabkit.refold.triangulate import EDGE_KINDS
+
+    if any(len(f) != 3 for f in model.faces_vertices) or "kind" not in model.edges_data:
+        raise InputError("the hold analysis needs a FOLD file from fabkit refold (triangles with "
+                         "edges_fabkit:kind)", source=source)
+    tris = np.array(model.faces_vertices, np.int64)
+    V = np.asarray(model.vertices_coords, np.float64)
+    topo = MeshTopology(tris.ravel(), np.arange(0, 3 * len(tris) + 1, 3), len(V))
+    ids = topo.edge_ids(np.sort(np.asarray(model.edges_vertices), axis=1))
+    if np.any(ids < 0) or len(np.unique(ids)) != topo.n_edges:
+        raise InputError("edges_vertices do not match the faces' edges", source=source)
+
+    def per_edge(values, fill):
+        out = np.full(topo.n_edges, fill, dtype=np.asarray(values).dtype)
+        out[ids] = values
+        return out
+
+    kind = np.array(EDGE_KINDS)[per_edge(np.asarray(model.edges_data["kind"], np.int64), 0)]
+    crease = per_edge(np.asarray(model.edges_data.get("crease", np.full(model.n_edges, -1)), np.int64), -1)
+    frames = model.frames or ()
+    angles = np.stack([per_edge(np.asarray(f.edges_fold_angle if f.edges_fold_angle is not None
+                                           else model.edges_fold_angle, np.float64), 0.0) for f in frames])         if frames else per_edge(np.asarray(model.edges_fold_angle, np.float64), 0.0)[None]
+    used = np.unique(tris)
+    seq = SimpleNamespace(
+        tris=tris, flat_vertices=V, edges=topo.edges, edge_kind=kind, edge_crease=crease,
+        target_angles=per_edge(np.asarray(model.edges_fold_angle, np.float64), 0.0),
+        tri_face=np.asarray(model.faces_data.get("polygon", np.arange(len(tris))), np.int64),
+        fixed_triangle=int(model.file_data.get("fabkit:fixed_triangle", 0)),
+        panel_size=float(np.linalg.norm(np.ptp(V[used], axis=0))))
+    return HoldModel.from_sequence(seq), angles
 
 
 def unheld_creases(model: HoldModel, held_tris: np.ndarray) -> list[tuple[int, np.ndarray]]:

@@ -166,3 +166,21 @@ def test_trifold_nearest_other_state(trifold):
     assert not x.exact and x.residual < 1e-3            # the issue's mirror state: edge lengths kept to 4e-5
     assert 0.07 < x.wing_move_m < 0.09 and max(abs(v) for v in x.crease_deg) < 1.0
     assert "nearest other state" in r.problems[0]
+
+
+def test_same_verdicts_from_the_fold_file(trifold, tmp_path):
+    """The check reads FOLD files: the model rebuilt from one gives the sequence's verdicts."""
+    from fabkit.holds import hold_model_from_fold
+    from fabkit.io.fold import load_fold, save_fold
+    from fabkit.refold.export import to_fold_model
+
+    flat, seq, model = trifold
+    path = tmp_path / "seq.fold"
+    save_fold(to_fold_model(seq), path)
+    fmodel, angles = hold_model_from_fold(load_fold(path))
+    np.testing.assert_allclose(angles, seq.angles, atol=1e-9)
+    mids = _middle_faces(flat)
+    for held in ([mids[1], mids[2]], list(mids.values())):
+        a = hold_analysis(model, seq.angles[5], held)
+        b = hold_analysis(fmodel, angles[5], held)
+        assert (a.ok, a.unheld_creases, a.nullity) == (b.ok, b.unheld_creases, b.nullity)
