@@ -17,6 +17,11 @@ Measured:
   singularity factors called per configuration); `speedup` = configs_per_s / baseline_per_s;
 - `full_check_s`: `check_program` end to end (interpolation with IK, all checks, model build).
 Targets: >= 20,000 configurations/s on one core; a 2,000-waypoint program in <= 1 s.
+
+Panel case (`sim.panel_collision`, which runs once per program, not per arm configuration): the
+folded 15-face and 192-face grid panels in each cell against the obstacles (MuJoCo explicit pairs)
+and themselves (triangle pairs), every state and the motion between sampled every 5 mm of corner
+travel; `panel_samples_per_s` fractional fold states checked per second.
 """
 from __future__ import annotations
 
@@ -71,6 +76,41 @@ def _baseline(cell, panel, Q) -> float:
     return time.perf_counter() - t0
 
 
+def _panel_collision_rows() -> list[dict]:
+    """The panel against the cell and itself, per fractional fold state (module docstring)."""
+    from robot.cell import load_cell
+    from sim.panel_collision import PanelCollider, check_panel_collisions
+
+    rows = []
+    for cell_file in ("ur5e_bench.toml", "ur10e_fold_table.toml"):
+        cell = load_cell(ROOT / "cells" / cell_file)
+        for fine in (False, True):
+            panel = _panel(cell, fine)
+            faces = [np.asarray(f) for f in _grid_faces(fine)]
+            tris = np.array([[f[0], f[k], f[k + 1]] for f in faces for k in range(1, len(f) - 1)])
+            tri_face = np.repeat(np.arange(len(faces)), [len(f) - 2 for f in faces])
+            collider = PanelCollider(panel, tris, tri_face, cell.obstacles)
+            out = {}
+
+            def run():
+                out["r"] = check_panel_collisions(collider)
+
+            t = best_time(run, repeat=3)
+            rows.append({"cell": cell.name, "faces": len(faces), "samples": out["r"].samples,
+                         "contacts": len(out["r"].contacts), "panel_samples_per_s": out["r"].samples / t})
+    return rows
+
+
+def _grid_faces(fine: bool):
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    from fold_fixtures import grid_panel
+
+    mesh = grid_panel(n_strips=6, n_columns=32, strip_width=0.1, length=0.5) if fine else grid_panel()
+    return mesh.faces_list()
+
+
 def main() -> dict:
     from robot.cell import load_cell
     from sim.check import CheckSettings, check_program, interpolate_program
@@ -113,14 +153,20 @@ def main() -> dict:
             "full_check_s": t_full,
             "full_configs_per_s": M / t_full,
         })
+    panel_rows = _panel_collision_rows()
     worst_rate = min(r["configs_per_s"] for r in rows if r["faces"] <= 15)
     worst_full = max(r["full_check_s"] for r in rows)
     fine_rate = min(r["configs_per_s"] for r in rows if r["faces"] > 15)
     meta = {"target_configs_per_s": 20000, "target_full_check_s": 1.0, "min_configs_per_s": worst_rate,
             "min_configs_per_s_192_faces_near_tool": fine_rate,
             "max_full_check_s": worst_full, "meets_targets": worst_rate >= 20000 and worst_full <= 1.0,
-            "baseline": "per-configuration mj_forward + per-configuration limits/singularity calls"}
+            "baseline": "per-configuration mj_forward + per-configuration limits/singularity calls",
+            "panel_collision": panel_rows,
+            "min_panel_samples_per_s": min(r["panel_samples_per_s"] for r in panel_rows)}
     out = report("bench_check", rows, meta)
+    for r in panel_rows:
+        print(f"panel collisions: {r['cell']}, {r['faces']} faces, {r['samples']} fractional states: "
+              f"{r['panel_samples_per_s']:,.0f} states/s ({r['contacts']} contacts)")
     print(f"min configs/s {worst_rate:,.0f} with a 15-face panel (target 20,000), {fine_rate:,.0f} with the tool "
           f"over a 192-face panel; slowest 2,000-waypoint check {worst_full:.3f} s (target 1 s)")
     return out

@@ -28,7 +28,7 @@ from scipy.spatial.transform import Rotation
 from fabkit.errors import InputError
 from robot.kinematics import MODELS, URModel, get_model
 
-__all__ = ["Cell", "RobotMount", "Tool", "Shape", "Limits", "load_cell", "parse_cell", "pose_to_matrix",
+__all__ = ["Cell", "RobotMount", "Tool", "Shape", "Limits", "Clamp", "load_cell", "parse_cell", "pose_to_matrix",
            "matrix_to_pose", "file_sha256", "SHAPE_KINDS"]
 
 SHAPE_KINDS = ("box", "cylinder", "capsule", "sphere")
@@ -92,6 +92,19 @@ class Tool:
     shapes: tuple[Shape, ...]
     grip_output: int
     grip_output_kind: str
+    cup_radius: float | None = None  # radius [m] of the suction cup's footprint on the panel (optional)
+
+
+@dataclass(frozen=True, eq=False)
+class Clamp:
+    """Where the panel is clamped: `pose` 4x4 in world (z out of the jaw toward the panel; the
+    clamped face's frame lands on it), `footprint` (k, 2) polygon [m] in the pose's xy plane that
+    must stay on the clamped face, `obstacle` the obstacle carrying the clamp (touching the clamped
+    face by design) or ""."""
+
+    pose: np.ndarray
+    footprint: np.ndarray
+    obstacle: str = ""
 
 
 @dataclass(frozen=True)
@@ -123,6 +136,13 @@ class Cell:
     limits: Limits
     source: str
     sha256: str = ""
+    clamp: Clamp | None = None
+    extra_arms: tuple[tuple[str, RobotMount], ...] = ()  # (name, arm) of further arms, same tool
+
+    @property
+    def arms(self) -> tuple[tuple[str, RobotMount], ...]:
+        """Every arm as (name, mount): the `[robot]` arm is "a", then `[[arms]]` by their names."""
+        return (("a", self.robot),) + self.extra_arms
 
     @property
     def model(self) -> URModel:
@@ -253,6 +273,46 @@ def _shape(r: _Reader, default_name: str, need_name: bool) -> Shape:
     return Shape(name=name, kind=kind, pose=pose, size=size)
 
 
+def _mount(rr: _Reader) -> RobotMount:
+    model = rr.string("model", choices=tuple(MODELS))
+    urm = get_model(model)
+    base_pose = rr.pose("base_pose")
+    home = rr.vector("home", 6, required=False, default=[0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0],
+                     unit="rad")
+    for i, q in enumerate(home):
+        if not urm.q_min[i] <= q <= urm.q_max[i]:
+            rr.fail("home", f"joint {i + 1} = {q:.12g} rad is outside [{urm.q_min[i]:.6g}, {urm.q_max[i]:.6g}]")
+    return RobotMount(model, base_pose, home)
+
+
+def _extra_arm(r: _Reader) -> tuple[str, RobotMount]:
+    name = r.string("name")
+    if not name.isidentifier() or not name.islower():
+        r.fail("name", f"{name!r} must be a lower-case identifier (it prefixes the arm's MuJoCo names)")
+    mount = _mount(r)
+    r.done()
+    return name, mount
+
+
+def _clamp(r: _Reader, obstacle_names: list[str]) -> Clamp:
+    pose = r.pose("pose")
+    raw = r.raw("footprint")
+    if not isinstance(raw, list) or len(raw) < 3 or not all(isinstance(p, list) and len(p) == 2 for p in raw):
+        r.fail("footprint", "expected a polygon: a list of at least 3 [x, y] points (m)")
+    fp = np.array([[_number(x, f"{r.key('footprint')}[{i}]", r.source, unit="m") for x in p]
+                   for i, p in enumerate(raw)])
+    if np.abs(fp).max() > 1.0:
+        r.fail("footprint", "a point is more than 1 m from the clamp pose (millimetres?)")
+    area = 0.5 * float(np.sum(fp[:, 0] * np.roll(fp[:, 1], -1) - np.roll(fp[:, 0], -1) * fp[:, 1]))
+    if abs(area) < 1e-8:
+        r.fail("footprint", "the polygon has no area")
+    obstacle = r.string("obstacle", required=False, default="")
+    if obstacle and obstacle not in obstacle_names:
+        r.fail("obstacle", f"{obstacle!r} is not one of the cell's obstacles")
+    r.done()
+    return Clamp(pose=pose, footprint=fp, obstacle=obstacle)
+
+
 def parse_cell(data: dict, source: str) -> Cell:
     """Validate a parsed TOML document (see `load_cell`)."""
     top = _Reader(data, "", source)
@@ -279,6 +339,8 @@ def parse_cell(data: dict, source: str) -> Cell:
     kind = tr.string("grip_output_kind", required=False, default="tool", choices=("tool", "standard"))
     grip = tr.integer("grip_output", lo=0, hi=MAX_TOOL_OUTPUT[kind])
     shapes = tuple(_shape(s, f"tool_{i}", False) for i, s in enumerate(tr.tables("shapes")))
+    cup = tr.number("cup_radius", required=False, default=None, lo=0.0, lo_open=True, hi=0.5, unit="m") \
+        if tr.has("cup_radius") else None
     tr.done()
 
     fr = top.table_("fixture")
@@ -290,6 +352,12 @@ def parse_cell(data: dict, source: str) -> Cell:
     for i, n in enumerate(names):
         if n in names[:i]:
             raise InputError(f"obstacles[{i}].name: {n!r} is used twice", source=source)
+    clamp = _clamp(top.table_("clamp"), names) if top.has("clamp") else None
+    extra = tuple(_extra_arm(a) for a in top.tables("arms"))
+    arm_names = ["a"] + [n for n, _ in extra]
+    for i, n in enumerate(arm_names):
+        if n in arm_names[:i]:
+            raise InputError(f"arms[{i - 1}].name: {n!r} is used twice (the [robot] arm is \"a\")", source=source)
 
     lr = top.table_("limits")
     limits = Limits(
@@ -300,14 +368,16 @@ def parse_cell(data: dict, source: str) -> Cell:
         clearance=lr.number("clearance", lo=0.0, hi=MAX_CLEARANCE, unit="m"),
         blend_radius=lr.number("blend_radius", required=False, default=0.02, lo=0.0, hi=MAX_BLEND, unit="m"),
     )
-    for i, (v, vmax) in enumerate(zip(limits.joint_speed, urm.joint_speed_max)):
-        if v > vmax + SPEED_SLACK:
-            lr.fail("joint_speed", f"joint {i + 1} = {v:.12g} rad/s exceeds the {model}'s {vmax:.6g} rad/s")
+    for arm_model in dict.fromkeys([model] + [m.model for _, m in extra]):
+        for i, (v, vmax) in enumerate(zip(limits.joint_speed, get_model(arm_model).joint_speed_max)):
+            if v > vmax + SPEED_SLACK:
+                lr.fail("joint_speed", f"joint {i + 1} = {v:.12g} rad/s exceeds the {arm_model}'s {vmax:.6g} rad/s")
     lr.done()
     top.done()
     return Cell(name=name, description=description, robot=RobotMount(model, base_pose, home),
-                tool=Tool(tcp=tcp, shapes=shapes, grip_output=grip, grip_output_kind=kind),
-                fixture=fixture, obstacles=obstacles, limits=limits, source=source, sha256=_data_sha256(data))
+                tool=Tool(tcp=tcp, shapes=shapes, grip_output=grip, grip_output_kind=kind, cup_radius=cup),
+                fixture=fixture, obstacles=obstacles, limits=limits, source=source, clamp=clamp,
+                extra_arms=extra, sha256=_data_sha256(data))
 
 
 def _data_sha256(data: dict) -> str:

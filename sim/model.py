@@ -61,6 +61,7 @@ class CellNames:
     grip_face: int | None = None
     margins: dict = field(default_factory=dict)
     spec: object = field(default=None, repr=False, compare=False)  # the MjSpec compiled (spec.to_xml(): MJCF)
+    extra_arms: tuple = ()  # per further arm (all_arms=True): {"name", "joints", "bodies", "tool_body", "tcp_site"}
 
 
 def _rgba(kind: str) -> list[float]:
@@ -84,16 +85,22 @@ def shape_size(shape) -> list[float]:
     return size + [0.0] * (3 - len(size))
 
 
-def _add_primitive(body, name: str, shape, **kw):
+def add_primitive(body, name: str, shape, **kw):
+    """Add a cell primitive (`robot.cell.Shape`, pose in the body's frame) as a geom of an MjSpec body."""
     pos, quat = _pose_pos_quat(shape.pose)
     return body.add_geom(name=name, type=_GEOM_TYPES[shape.kind], size=shape_size(shape), pos=pos, quat=quat, **kw)
 
 
-def build_cell_model(cell, panel_state: PanelModel | None = None, *, state: float = 0.0):
+_add_primitive = add_primitive
+
+
+def build_cell_model(cell, panel_state: PanelModel | None = None, *, state: float = 0.0, all_arms: bool = False):
     """Build and compile the cell model. Returns `(MjModel, CellNames)`.
 
     `cell`: a `robot.cell.Cell`. `panel_state`: the panel pieces with their per-state world poses
-    (`sim.panel.PanelModel`), posed at fold state `state`; None = no panel.
+    (`sim.panel.PanelModel`), posed at fold state `state`; None = no panel. `all_arms`: also add the
+    cell's further arms (`cell.extra_arms`), each with its own tool, names prefixed `<name>_`, joints
+    after the first arm's in qpos; arm-arm and tool-tool contacts between arms are paired.
     """
     from robot.kinematics import get_model
 
@@ -135,6 +142,25 @@ def build_cell_model(cell, panel_state: PanelModel | None = None, *, state: floa
     tcp_pos, tcp_quat = _pose_pos_quat(cell.tool.tcp)
     tool.add_site(name="tcp", pos=tcp_pos, quat=tcp_quat, size=[0.008, 0, 0], rgba=[1, 0, 0, 1])
 
+    extra = []
+    for arm_name, mount_spec in (cell.extra_arms if all_arms else ()):
+        pre = f"{arm_name}_"
+        pos, quat = _pose_pos_quat(mount_spec.base_pose)
+        mount_b = world.add_body(name=pre + "robot_mount", pos=pos, quat=quat)
+        arm_b = add_arm(spec, mount_b, get_model(mount_spec.model), margin=0.0, prefix=pre)
+        fsite = spec.site(arm_b["flange_site"])
+        tool_b = spec.body(arm_b["flange_body"]).add_body(name=pre + "tool", pos=list(fsite.pos),
+                                                          quat=list(fsite.quat))
+        tool_b.mass = 1e-3
+        tool_b.inertia = [1e-6, 1e-6, 1e-6]
+        tool_b.explicitinertial = True
+        for i, shape in enumerate(cell.tool.shapes):
+            add_primitive(tool_b, pre + (shape.name or f"tool_{i}"), shape, contype=BIT_TOOL,
+                          conaffinity=BIT_ARM | BIT_TOOL | BIT_ENV | BIT_PANEL, margin=0.0, rgba=_rgba("tool"))
+        tool_b.add_site(name=pre + "tcp", pos=tcp_pos, quat=tcp_quat, size=[0.008, 0, 0], rgba=[1, 0, 0, 1])
+        extra.append({"name": arm_name, "joints": tuple(arm_b["joints"]), "bodies": tuple(arm_b["bodies"]),
+                      "tool_body": pre + "tool", "tcp_site": pre + "tcp"})
+
     # obstacles
     for ob in cell.obstacles:
         _add_primitive(world, ob.name, ob, contype=BIT_ENV, conaffinity=0, margin=window, gap=0.0,
@@ -165,9 +191,9 @@ def build_cell_model(cell, panel_state: PanelModel | None = None, *, state: floa
     for g in range(m.ngeom):
         if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
             continue
-        if body_of[g] in arm["bodies"]:
+        if body_of[g] in arm["bodies"] or any(body_of[g] in e["bodies"] for e in extra):
             group[g] = GROUP_ARM
-        elif body_of[g] == "tool":
+        elif body_of[g] == "tool" or any(body_of[g] == e["tool_body"] for e in extra):
             group[g] = GROUP_TOOL
         elif body_of[g] in panel_bodies:
             group[g] = GROUP_PANEL
@@ -180,5 +206,6 @@ def build_cell_model(cell, panel_state: PanelModel | None = None, *, state: floa
                       flange_site=arm["flange_site"], tcp_site="tcp", arm_bodies=tuple(arm["bodies"]),
                       tool_body="tool", panel_bodies=tuple(panel_bodies), grip_face=grip,
                       margins={"environment_m": window, "panel_m": panel_margin,
-                               "clearance_m": float(cell.limits.clearance)}, spec=spec)
+                               "clearance_m": float(cell.limits.clearance)}, spec=spec,
+                      extra_arms=tuple(extra))
     return m, names

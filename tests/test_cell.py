@@ -147,6 +147,7 @@ def test_optional_keys_have_defaults():
     del data["description"]
     del data["tool"]["grip_output_kind"]
     del data["obstacles"]
+    del data["clamp"]  # it names an obstacle
     data["tool"]["shapes"][0].pop("name")
     cell = parse_cell(data, "x.toml")
     np.testing.assert_allclose(cell.robot.home, [0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0])
