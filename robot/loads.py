@@ -28,7 +28,7 @@ from fabkit.sheet.loads import GRAVITY, PLANE_STRAIN, FoldMoment, VacuumCup
 from robot.kinematics import fk_frames
 
 __all__ = ["ArmRating", "ARM_RATINGS", "arm_rating", "CreaseLoad", "LoadVerdict", "LoadReport", "check_fold_loads",
-           "joint_torques", "cup_of_cell", "ligament_for_moment"]
+           "joint_torques", "cup_of_cell", "ligament_for_moment", "payload_record"]
 
 
 @dataclass(frozen=True)
@@ -202,3 +202,28 @@ def joint_torques(model, q, point, force, couple=(0.0, 0.0, 0.0)) -> np.ndarray:
         z, o = F[i, :3, 2], F[i, :3, 3]
         tau[i] = z @ (np.cross(p - o, f) + c)
     return tau
+
+
+def payload_record(cell, waypoints, panel_mass: float, panel_cog, tool_mass: float) -> dict:
+    """The payload the program declares (JSON-ready): the tool alone (`tool_*`, before the grip and
+    after the release) and tool + panel (`held_*`, between them); CoG [m] in the flange (tool0)
+    frame. The tool's CoG is taken half-way to the TCP; the panel's is its centre in the panel
+    frame at the grip waypoint. The whole panel is counted although the clamp carries part of it:
+    an upper bound on what the arm holds."""
+    from robot.cell import pose_to_matrix
+
+    tcp = np.asarray(cell.tool.tcp, np.float64)
+    tool_cog = tcp[:3, 3] / 2
+    grip = next((w for w in waypoints if w["op"] == "grip"), None)
+    if grip is None or panel_mass <= 0:
+        held_mass, held_cog = tool_mass, tool_cog
+    else:
+        flange = pose_to_matrix(grip["pose"]) @ np.linalg.inv(tcp)      # flange in the base frame
+        cog_base = cell.panel_to_base @ np.append(np.asarray(panel_cog, np.float64), 1.0)
+        panel_in_flange = (np.linalg.inv(flange) @ cog_base)[:3]
+        held_mass = tool_mass + panel_mass
+        held_cog = (tool_mass * tool_cog + panel_mass * panel_in_flange) / held_mass
+    return {"tool_mass_kg": float(tool_mass), "tool_cog_m": [float(x) for x in tool_cog],
+            "panel_mass_kg": float(panel_mass), "held_mass_kg": float(held_mass),
+            "held_cog_m": [float(x) for x in held_cog], "frame": "flange (tool0)",
+            "note": "held = tool + the whole panel (the clamp carries part of it); tool CoG half-way to the TCP"}

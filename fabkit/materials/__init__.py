@@ -276,14 +276,15 @@ def get_material(name: str | Path) -> Material:
 _LENGTH = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(mm|m|in)\s*$")
 
 
-def parse_length(text: str, source: str = "--thickness") -> float:
-    """'1mm', '1.6 mm', '0.002m', '0.0625in' -> metres. A bare number is refused: the unit must be said."""
+def parse_length(text: str, source: str = "--thickness", allow_zero: bool = False) -> float:
+    """'1mm', '1.6 mm', '0.002m', '0.0625in' -> metres, in (0, 50] mm ([0, 50] with `allow_zero`).
+    A bare number is refused: the unit must be said."""
     m = _LENGTH.match(str(text))
     if not m:
         raise InputError(f"{text!r} is not a length with a unit (e.g. 1mm, 1.6 mm, 0.002m)", source=source)
     v = float(m.group(1)) * {"mm": 1e-3, "m": 1.0, "in": 0.0254}[m.group(2)]
-    if not (math.isfinite(v) and 0 < v <= 0.05):
-        raise InputError(f"{text!r} must be in (0, 50] mm", source=source)
+    if not (math.isfinite(v) and (0 <= v if allow_zero else 0 < v) and v <= 0.05):
+        raise InputError(f"{text!r} must be in {'[0' if allow_zero else '(0'}, 50] mm", source=source)
     return v
 
 
