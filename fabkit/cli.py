@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "demo": "run the whole pipeline on the built-in tri-fold panel",
     "generate": "procedural input meshes (trifold, reflect, ...)",
     "info": "measure a mesh or FOLD file (angle defect, planarity, tags) and validate it",
+    "materials": "sheet materials: list, validate, calibrate springback from test folds",
     "relax": "dynamic relaxation toward zero angle defect and planar faces",
     "unfold": "planar development with error metrics and cut files",
     "panels": "multi-panel workflow: panelise, relax, unfold, congruency, merge",
