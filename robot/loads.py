@@ -28,7 +28,7 @@ from fabkit.sheet.loads import GRAVITY, PLANE_STRAIN, FoldMoment, VacuumCup
 from robot.kinematics import fk_frames
 
 __all__ = ["ArmRating", "ARM_RATINGS", "arm_rating", "CreaseLoad", "LoadVerdict", "LoadReport", "check_fold_loads",
-           "joint_torques", "cup_of_cell", "ligament_for_moment", "payload_record"]
+           "joint_torques", "cup_of_cell", "ligament_for_moment", "payload_record", "toolpath_loads"]
 
 
 @dataclass(frozen=True)
@@ -227,3 +227,18 @@ def payload_record(cell, waypoints, panel_mass: float, panel_cog, tool_mass: flo
             "panel_mass_kg": float(panel_mass), "held_mass_kg": float(held_mass),
             "held_cog_m": [float(x) for x in held_cog], "frame": "flange (tool0)",
             "note": "held = tool + the whole panel (the clamp carries part of it); tool CoG half-way to the TCP"}
+
+
+def toolpath_loads(spec, model, creases, grip_face: int, cell, payload_mass: float) -> LoadReport:
+    """The load check of a fold program: every crease the arm folds (`fabkit.sheet.creases.arm_folds`,
+    from the design FOLD `model`) in every state, on the cell's arm and cup."""
+    from fabkit.sheet.creases import arm_folds
+    from fabkit.sheet.loads import fold_moment
+
+    fixed = model.file_data.get("fabkit:fixed_face")
+    folds = arm_folds(model, creases, grip_face, None if fixed is None else int(fixed))
+    states: list[list[CreaseLoad]] = [[] for _ in range(model.n_frames)]
+    for f in folds:
+        states[f.state].append(CreaseLoad(fold_moment(spec, f.crease.length, f.crease.name), f.lever, f.pull))
+    return check_fold_loads(states, arm_rating(cell.model.name), cup_of_cell(cell), payload_mass=payload_mass,
+                            material=spec.material)

@@ -79,3 +79,26 @@ def test_joint_torques_of_a_pure_force_match_the_lever_arm():
     assert np.all(np.isfinite(tau)) and abs(tau[1]) > 10
     # a pure couple about z is felt fully by the base joint
     assert joint_torques("ur5e", q, T[:3, 3], [0, 0, 0], [0, 0, 7.0])[0] == pytest.approx(7.0)
+
+
+def test_arm_folds_only_the_creases_between_clamp_and_grip():
+    from fabkit.refold import refold
+    from fabkit.refold.export import to_fold_model
+    from fabkit.sheet.creases import arm_folds, panel_creases
+    from tests.refold_panels import reflect_pair
+
+    flat, target = reflect_pair(2, columns=12, rows=3)
+    model = to_fold_model(refold(flat, target, frames=3))
+    creases = panel_creases(model)
+    fixed = int(model.file_data["fabkit:fixed_face"])
+    strip = np.asarray(flat.face_data["strip"])
+    fixed_strip = int(strip[fixed])
+    mid = np.flatnonzero(np.asarray(flat.face_data["middle"]) != 0)
+    for face in mid:
+        s = int(strip[face])
+        folds = arm_folds(model, creases, int(face), fixed)
+        lo, hi = sorted((s, fixed_strip))
+        assert {f.crease.name for f in folds} == {f"crease {k}" for k in range(lo, hi)}
+        for f in folds:
+            assert f.lever > 0 and f.state >= 1
+            assert f.pull == (f.crease.name == "crease 0")  # crease 0 is the +60 deg valley

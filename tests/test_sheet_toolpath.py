@@ -84,3 +84,23 @@ def test_bad_sheet_options_exit_2(reflect_fold, tmp_path, capsys):
     assert rc == 2 and not path.exists() and "crease 0" in err and "minimum 3 mm" in err
     rc, _, _ = _toolpath(reflect_fold, tmp_path / "unk", "--material", "unobtainium", "--thickness", "1mm")
     assert rc == 2 and "unknown material" in capsys.readouterr().err
+
+
+def test_fold_loads_per_state_on_the_ur5e(reflect_fold, tmp_path, capsys):
+    rc, path, _ = _toolpath(reflect_fold, tmp_path / "al", "--material", "5052-H32", "--thickness", "1mm")
+    assert rc == 0
+    loads = json.loads(path.read_text())["sheet"]["loads"]
+    assert not loads["ok"] and loads["arm"] == "ur5e"
+    wrist = [v for v in loads["verdicts"] if v["check"] == "wrist couple"]
+    assert wrist and all(v["crease"] == "crease 0" and not v["ok"] for v in wrist)
+    assert {v["state"] for v in wrist} == set(range(1, len(json.loads(path.read_text())["sheet"]["states"])))
+    err = capsys.readouterr().err
+    assert "warning: load check: crease 0" in err and "groove the crease" in err and "push instead of pull" in err
+    rc, path, script = _toolpath(reflect_fold, tmp_path / "strict", "--material", "5052-H32", "--thickness", "1mm",
+                                 "--check-loads")
+    assert rc == 1 and not path.exists() and not script.exists()
+    assert "FAILED: load check: crease 0" in capsys.readouterr().err
+    # thin soft sheet: within the UR5e's and the 50 mm cup's ratings
+    rc, path, _ = _toolpath(reflect_fold, tmp_path / "thin", "--material", "1100-H14", "--thickness", "0.5mm",
+                            "--check-loads", "--tool-mass", "1")
+    assert rc == 0 and json.loads(path.read_text())["sheet"]["loads"]["ok"]

@@ -25,7 +25,10 @@ With --material (and --thickness), the path follows the springback-compensated f
 crease is overbent so that it springs back to the design angle on release (the FOLD keeps the
 design angles); PATH.json gains `sheet` (per fold state and crease: design and programmed angles)
 and `payload` (tool, and tool + panel while held, with the CoG in the flange frame), and the program
-sets the payload (set_payload). Folds tighter than the material's minimum radius are refused
+sets the payload (set_payload). The fold loads of the creases the arm folds (between the clamped and
+the gripped face) are checked against the arm's wrist torque and rated payload and the cup's holding
+force, per state; exceeded loads are warnings naming the crease and the remedy, or exit 1 with
+--check-loads. Folds tighter than the material's minimum radius are refused
 (exit 2, naming the crease). Models and limits: docs/sheet.md.
 
 Exit codes: 0 ok; 1 the path is unreachable, singular or discontinuous (the message names the
@@ -59,6 +62,9 @@ def add_arguments(parser) -> None:
     from fabkit.commands._sheet import add_sheet_arguments  # sheet hook: --material, --thickness, ...
 
     add_sheet_arguments(parser, tool_mass=True)
+    parser.add_argument("--check-loads", action="store_true",
+                        help="with --material: fail (exit 1, nothing written) when a fold load exceeds the arm's "
+                             "or the cup's rating (default: record the verdicts and warn)")
     add_common(parser)
 
 
@@ -130,15 +136,29 @@ def run(args) -> int:
     tp = res.toolpath
     if compensated is not None:  # ---- sheet hook: design/programmed angles and payload into PATH.json ----
         from fabkit.sheet import panel_mass
-        from robot.loads import payload_record
+        from robot.loads import payload_record, toolpath_loads
 
         if args.tool_mass is None:
             print("fabkit toolpath: note: payload with an assumed 1.0 kg gripper (give --tool-mass)", file=sys.stderr)
         flat = design_model.mesh()
         pm = panel_mass(spec, flat.vertices, flat.triangulate()[0])
-        payload = payload_record(cell, tp.waypoints, pm.mass, pm.cog,
-                                 1.0 if args.tool_mass is None else float(args.tool_mass))
-        tp = replace(tp, extra={**tp.extra, "sheet": compensated.summary(), "payload": payload})
+        tool_mass = 1.0 if args.tool_mass is None else float(args.tool_mass)
+        payload = payload_record(cell, tp.waypoints, pm.mass, pm.cog, tool_mass)
+        loads = toolpath_loads(spec, design_model, compensated.creases, res.grip_face, cell, tool_mass + pm.mass)
+        tp = replace(tp, extra={**tp.extra, "sheet": {**compensated.summary(), "loads": loads.summary()},
+                                "payload": payload})
+        report["loads"] = loads.summary()
+        seen = {}
+        for v in loads.failures:  # one line per crease and check, with the states it applies to
+            seen.setdefault((v.crease, v.check), []).append(v)
+        for (crease, check), vs in seen.items():
+            worst = max(vs, key=lambda v: v.demand)
+            print(f"fabkit toolpath: {'FAILED' if args.check_loads else 'warning'}: load check: {crease}, states "
+                  f"{','.join(str(v.state) for v in vs)}: {check} {worst.demand:.1f} {worst.unit} of "
+                  f"{worst.capacity:.1f} {worst.unit}; remedy: {worst.remedy}", file=sys.stderr)
+        if args.check_loads and not loads.ok:
+            write_report(args, {**report, "ok": False, "problems": loads.summary()["problems"]})
+            return 1
     script = None
     if args.script:
         reg = PROGRESS_REGISTER if args.progress_register is None else args.progress_register

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["Crease", "panel_creases"]
+__all__ = ["Crease", "panel_creases", "ArmFold", "arm_folds"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,3 +98,49 @@ def panel_creases(model) -> tuple[Crease, ...]:
             b = float(areas.sum() / (len(uniq) + 1) / L)
         out.append(Crease(name=f"crease {int(r)}", edges=e, length=L, kappa_g=float(kappa), panel_width=b))
     return tuple(out)
+
+
+@dataclass(frozen=True)
+class ArmFold:
+    """A crease the arm folds in one fold state: `state`, `crease`, lever arm `lever` [m] from the
+    crease to the grip face's centre (flat pattern), `pull` (the cup on the front face must pull:
+    a valley lifts the gripped face toward the cup)."""
+
+    state: int
+    crease: Crease
+    lever: float
+    pull: bool
+
+
+def arm_folds(model, creases, grip_face: int, fixed_face: int | None = None) -> list[ArmFold]:
+    """The creases between the clamped face and the gripped face, in every state where they fold
+    further (mean |angle| over the crease grows). Needs strip tags (`faces_fabkit:strip`); without
+    them every crease counts. Faces are polygon ids (`faces_fabkit:polygon`) or FOLD faces."""
+    from fabkit.frames import face_groups
+
+    groups = face_groups(model.faces_vertices, model.faces_data)
+    V = np.asarray(model.vertices_coords)
+    ev = np.asarray(model.edges_vertices)
+    g = groups.index_of(int(grip_face))
+    centre = V[np.asarray(groups.vertices[g])].mean(0)  # the grip face's centre in the flat pattern
+    between = set(range(len(creases)))
+    if fixed_face is not None and "strip" in model.faces_data and model.edges_data.get("crease") is not None:
+        s_grip = int(groups.strip[g])
+        s_fix = int(groups.strip[groups.index_of(int(fixed_face))])
+        lo, hi = sorted((s_grip, s_fix))
+        between = {i for i, c in enumerate(creases) if lo <= int(c.name.split()[-1]) < hi}
+    out = []
+    angles = [np.asarray(f.edges_fold_angle) if f.edges_fold_angle is not None else None for f in model.frames]
+    for i in sorted(between):
+        c = creases[i]
+        a, b = V[ev[c.edges, 0]], V[ev[c.edges, 1]]
+        d = b - a
+        t = np.clip(((centre - a) * d).sum(1) / (d * d).sum(1), 0.0, 1.0)
+        lever = float(np.linalg.norm(a + t[:, None] * d - centre, axis=1).min())
+        for s in range(1, len(angles)):
+            if angles[s] is None or angles[s - 1] is None:
+                continue
+            now, before = angles[s][c.edges].mean(), angles[s - 1][c.edges].mean()
+            if abs(now) > abs(before) + 1e-12:
+                out.append(ArmFold(s, c, lever, bool(now > 0)))
+    return out
