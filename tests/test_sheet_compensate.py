@@ -101,3 +101,40 @@ def test_foreign_fold_without_fabkit_tags(straight_seq):
     (k,) = panel_creases(bare)
     assert len(k.edges) == 3 and k.length == pytest.approx(0.75)
     assert np.all(np.abs(c.programmed[-1, k.edges]) > 90 * DEG)
+
+
+def test_foreign_fold_with_its_own_edge_order(straight_seq):
+    # another tool's FOLD: edges in a different order, vertices listed hi-lo, no fabkit tags, no
+    # per-frame angles (the angles are measured from the coordinates)
+    rng = np.random.default_rng(3)
+    E = straight_seq.n_edges
+    perm = rng.permutation(E)
+    ev = np.asarray(straight_seq.edges_vertices)[perm][:, ::-1]
+    frames = tuple(replace(f, edges_fold_angle=None, data={}) for f in straight_seq.frames)
+    bare = replace(straight_seq, edges_vertices=ev, edges_assignment=np.asarray(straight_seq.edges_assignment)[perm],
+                   edges_fold_angle=np.asarray(straight_seq.edges_fold_angle)[perm], edges_data={}, faces_data={},
+                   file_data={}, frames=frames)
+    spec = sheet_spec(get_material("5052-H32"), 1.6 * MM, inside_radius=1.6 * MM)
+    c = compensate_sequence(bare, spec)
+    (k,) = panel_creases(bare)
+    np.testing.assert_allclose(np.degrees(c.design[-1, k.edges]), 90.0, atol=1e-9)
+    np.testing.assert_allclose(np.degrees(c.programmed[-1, k.edges]), 93.1, atol=0.15)
+    ref = compensate_sequence(straight_seq, spec)
+    np.testing.assert_allclose(np.asarray(c.model.frames[-1].vertices_coords),
+                               np.asarray(ref.model.frames[-1].vertices_coords), atol=1e-9)
+
+
+def test_a_foreign_sequence_keeps_its_own_panel_frame(straight_seq):
+    # the same fold, with the whole sequence moved (another tool's frame): the compensated states
+    # stay in that frame (the face that does not fold stays where the design has it)
+    from scipy.spatial.transform import Rotation
+
+    R = Rotation.from_rotvec([0.3, -0.2, 1.1])
+    moved = tuple(replace(f, vertices_coords=R.apply(np.array(f.vertices_coords)) + [0.5, -0.2, 0.1],
+                          edges_fold_angle=None) for f in straight_seq.frames)
+    seq = replace(straight_seq, frames=moved, file_data={})
+    spec = sheet_spec(get_material("5052-H32"), 1.6 * MM, inside_radius=1.6 * MM)
+    c = compensate_sequence(seq, spec)
+    ref = compensate_sequence(straight_seq, spec)
+    want = R.apply(np.array(ref.model.frames[-1].vertices_coords)) + [0.5, -0.2, 0.1]
+    np.testing.assert_allclose(np.asarray(c.model.frames[-1].vertices_coords), want, atol=1e-9)

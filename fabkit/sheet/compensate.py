@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fabkit.errors import InputError, ToleranceError
-from fabkit.fold import FoldFrame, FoldModel
+from fabkit.fold import FoldModel
 from fabkit.measures import dihedral_angles
 from fabkit.sheet.creases import Crease, panel_creases
 from fabkit.sheet.spec import SheetSpec, check_bend_radius
@@ -60,13 +60,23 @@ class CompensatedSequence:
 
 
 def _design_angles(model: FoldModel) -> np.ndarray:
-    rows = []
-    for i, f in enumerate(model.frames):
-        a = f.edges_fold_angle
-        if a is None or not np.all(np.isfinite(a)):
-            a = dihedral_angles(model.frame_mesh(i))
-        rows.append(np.asarray(a, np.float64))
-    return np.stack(rows)
+    """Fold angles (S, E) in FOLD edge order, measured from each state's coordinates (what the
+    uncompensated program follows; stored `edges_foldAngle` may come from another tool)."""
+    to_mesh = model.mesh_edge_index
+    return np.stack([dihedral_angles(model.frame_mesh(i))[to_mesh] for i in range(model.n_frames)])
+
+
+def _onto_design_frame(V: np.ndarray, solver, design: np.ndarray) -> np.ndarray:
+    """Move a solved state rigidly so its fixed triangle sits where the design state has it (the
+    identity for fabkit's own sequences, whose clamped triangle stays flat; a foreign sequence keeps
+    its own panel frame)."""
+    from scipy.spatial.transform import Rotation
+
+    tri = solver.panel.tris[solver.fixed_triangle]
+    a, b = V[tri], design[tri]
+    ca, cb = a.mean(0), b.mean(0)
+    R, _ = Rotation.align_vectors(b - cb, a - ca)
+    return R.apply(V - ca) + cb
 
 
 def programmed_crease_angles(spec: SheetSpec, design: np.ndarray, creases) -> np.ndarray:
@@ -119,6 +129,7 @@ def compensate_sequence(model: FoldModel, spec: SheetSpec, source: str = "SEQ.fo
             raise ToleranceError(f"{source}: compensated state {s} has no rigid fold with the creases held at "
                                  f"their programmed angles (Newton did not converge)")
         V, _ = solver.positions(res.rho)
+        V = _onto_design_frame(V, solver, np.asarray(frame.vertices_coords))
         angles = programmed[s].copy()
         angles[to_fold] = res.rho
         angles[crease_edges] = programmed[s, crease_edges]
