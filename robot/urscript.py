@@ -100,6 +100,9 @@ def write_urscript(tp: Toolpath, *, program_name: str | None = None, progress_re
     ]
     payload = tp.extra.get("payload")  # sheet payload (robot.loads.payload_record): tool, tool + panel held
     if payload:
+        for key in ("tool_mass_kg", "held_mass_kg"):
+            if not 0.0 <= float(payload[key]) <= 50.0:
+                raise ValueError(f"payload {key} {payload[key]!r} is not a mass in [0, 50] kg")
         tool_payload = f"  set_payload({format_number(payload['tool_mass_kg'])}, {_list(payload['tool_cog_m'])})"
         held_payload = f"  set_payload({format_number(payload['held_mass_kg'])}, {_list(payload['held_cog_m'])})"
         lines.append(tool_payload)

@@ -1,5 +1,5 @@
-"""Sheet options shared by the commands that need a material: --material, --thickness, --crease,
---ligament, --bend-radius (parsing only; the models are in `fabkit.sheet`)."""
+"""Sheet options shared by the commands that need a material (--material, --thickness, --crease,
+--ligament, --bend-radius) and the toolpath's sheet records; the models are in `fabkit.sheet`."""
 from __future__ import annotations
 
 
@@ -35,3 +35,33 @@ def sheet_from_args(args):
         raise InputError("--thickness, --crease, --ligament and --bend-radius need a --material other than none",
                          source="--material")
     return sheet_spec(material, t, args.crease, ligament=lig, inside_radius=r)
+
+
+def toolpath_sheet_record(args, spec, design_model, compensated, cell, tp, grip_face):
+    """PATH.json's `sheet` (design/programmed angles per state, fold-load verdicts) and `payload`
+    records for a planned toolpath; prints one line per exceeded load (crease, check, states,
+    remedy). -> (toolpath with the records, `robot.loads.LoadReport`)."""
+    import sys
+    from dataclasses import replace
+
+    from fabkit.sheet import panel_mass
+    from robot.loads import payload_record, toolpath_loads
+
+    if args.tool_mass is None:
+        print("fabkit toolpath: note: payload with an assumed 1.0 kg gripper (give --tool-mass)", file=sys.stderr)
+    tool_mass = 1.0 if args.tool_mass is None else float(args.tool_mass)
+    flat = design_model.mesh()
+    pm = panel_mass(spec, flat.vertices, flat.triangulate()[0])
+    payload = payload_record(cell, tp.waypoints, pm.mass, pm.cog, tool_mass)
+    loads = toolpath_loads(spec, design_model, compensated.creases, grip_face, cell, tool_mass + pm.mass)
+    tp = replace(tp, extra={**tp.extra, "sheet": {**compensated.summary(), "loads": loads.summary()},
+                            "payload": payload})
+    seen: dict = {}
+    for v in loads.failures:  # one line per crease and check, with the states it applies to
+        seen.setdefault((v.crease, v.check), []).append(v)
+    for (crease, check), vs in seen.items():
+        worst = max(vs, key=lambda v: v.demand)
+        print(f"fabkit toolpath: {'FAILED' if args.check_loads else 'warning'}: load check: {crease}, states "
+              f"{','.join(str(v.state) for v in vs)}: {check} {worst.demand:.1f} {worst.unit} of "
+              f"{worst.capacity:.1f} {worst.unit}; remedy: {worst.remedy}", file=sys.stderr)
+    return tp, loads

@@ -134,28 +134,11 @@ def run(args) -> int:
             write_report(args, {**report, "ok": False, "problems": [exc.as_problem()]})
             return 1
     tp = res.toolpath
-    if compensated is not None:  # ---- sheet hook: design/programmed angles and payload into PATH.json ----
-        from fabkit.sheet import panel_mass
-        from robot.loads import payload_record, toolpath_loads
+    if compensated is not None:  # ---- sheet hook: angles, payload and fold loads into PATH.json ----
+        from fabkit.commands._sheet import toolpath_sheet_record
 
-        if args.tool_mass is None:
-            print("fabkit toolpath: note: payload with an assumed 1.0 kg gripper (give --tool-mass)", file=sys.stderr)
-        flat = design_model.mesh()
-        pm = panel_mass(spec, flat.vertices, flat.triangulate()[0])
-        tool_mass = 1.0 if args.tool_mass is None else float(args.tool_mass)
-        payload = payload_record(cell, tp.waypoints, pm.mass, pm.cog, tool_mass)
-        loads = toolpath_loads(spec, design_model, compensated.creases, res.grip_face, cell, tool_mass + pm.mass)
-        tp = replace(tp, extra={**tp.extra, "sheet": {**compensated.summary(), "loads": loads.summary()},
-                                "payload": payload})
+        tp, loads = toolpath_sheet_record(args, spec, design_model, compensated, cell, tp, res.grip_face)
         report["loads"] = loads.summary()
-        seen = {}
-        for v in loads.failures:  # one line per crease and check, with the states it applies to
-            seen.setdefault((v.crease, v.check), []).append(v)
-        for (crease, check), vs in seen.items():
-            worst = max(vs, key=lambda v: v.demand)
-            print(f"fabkit toolpath: {'FAILED' if args.check_loads else 'warning'}: load check: {crease}, states "
-                  f"{','.join(str(v.state) for v in vs)}: {check} {worst.demand:.1f} {worst.unit} of "
-                  f"{worst.capacity:.1f} {worst.unit}; remedy: {worst.remedy}", file=sys.stderr)
         if args.check_loads and not loads.ok:
             write_report(args, {**report, "ok": False, "problems": loads.summary()["problems"]})
             return 1
