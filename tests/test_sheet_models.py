@@ -166,3 +166,21 @@ def test_minimum_radius_by_thickness_column_and_preparation():
         sheet_spec(get_material("6061-T6"), 1 * MM, "grooved")
     with pytest.raises(InputError, match="not thinner"):
         sheet_spec(m, 1 * MM, "grooved", ligament=1 * MM)
+
+
+@pytest.mark.parametrize("prep,kw", [("plain", {}), ("grooved", {"ligament": 0.6 * MM}),
+                                     ("perforated", {"uncut_fraction": 0.5})])
+def test_programmed_angle_inverts_the_release_model(prep, kw):
+    spec = sheet_spec(get_material("5052-H32"), 1 * MM, prep, **kw)
+    rng = np.random.default_rng(11)
+    for _ in range(40):
+        design = rng.uniform(5, 120) * DEG * rng.choice([-1, 1])
+        kappa, b = rng.uniform(0, 3.0), rng.uniform(0.05, 0.3)
+        try:
+            held = programmed_angle(spec, design, kappa, b)
+        except SpringbackError:
+            # then no held angle reaches the design: the most folded hold falls short
+            assert abs(released_angle(spec, 179 * DEG, kappa, b)) < abs(design)
+            continue
+        assert abs(held) > abs(design)
+        assert released_angle(spec, held, kappa, b) == pytest.approx(design, abs=1e-10)

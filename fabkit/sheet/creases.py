@@ -30,16 +30,6 @@ class Crease:
     panel_width: float
 
 
-def _tri_areas(V, faces) -> np.ndarray:
-    out = np.zeros(len(faces))
-    for i, f in enumerate(faces):
-        p = V[np.asarray(f)]
-        # polygon area by the fan of cross products (flat pattern: z = 0)
-        c = np.cross(p[1:-1] - p[0], p[2:] - p[0])
-        out[i] = 0.5 * np.linalg.norm(c.sum(0))
-    return out
-
-
 def _turning(V, edges) -> float:
     """Total |turning angle| of a chain of edges at its degree-2 vertices."""
     total = 0.0
@@ -81,8 +71,7 @@ def panel_creases(model) -> tuple[Crease, ...]:
         g = coo_matrix((np.ones(len(ids)), (a, b)), shape=(n, n))
         _, lab = connected_components(g, directed=False)
         _, rows = np.unique(lab[a], return_inverse=True)
-    faces = model.faces_vertices
-    areas = _tri_areas(V, faces)
+    areas = np.asarray(model.mesh(validate=False).face_areas)  # the key frame: the flat pattern
     strip = model.faces_data.get("strip")
     out = []
     uniq = np.unique(rows)

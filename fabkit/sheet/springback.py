@@ -102,9 +102,12 @@ def programmed_angle(spec: SheetSpec, design: float, kappa_g: float = 0.0, panel
                      crease: str = "crease") -> float:
     """The held (overbent) fold angle [rad] that springs back to `design` (sign kept).
 
-    Straight crease: design / K_cal exactly. Curved crease: solved (brentq) on [design, 179 deg].
-    Rigid material: `design` exactly. Raises `SpringbackError` naming `crease` when even 179 deg
-    springs back short of the design angle."""
+    The balance of `released_angle` solved for the held angle a at released angle d: with
+    r = m_u(d) / m_p <= 1 (the crease stays on its elastic unloading line),
+        a = d / (1 - (1 - K_cal) (1 + r))
+    (a = d / K_cal on a straight crease). r > 1: the panels re-open the crease past d whatever the
+    overbend. Rigid material: `design` exactly. Raises `SpringbackError` naming `crease` when no
+    held angle up to 179 deg springs back to the design angle."""
     d = abs(float(design))
     if spec.rigid or d == 0.0:
         return float(design)
@@ -113,19 +116,14 @@ def programmed_angle(spec: SheetSpec, design: float, kappa_g: float = 0.0, panel
     if K <= 0.0:
         raise SpringbackError(f"{crease}: {spec.material.name} at this thickness and radius stays elastic "
                               f"(no permanent set): it springs back flat; fold around a smaller radius or groove it")
-    if kappa_g == 0.0 or panel_width <= 0.0:
-        held = d / K
-    else:
-        best = released_angle(spec, MAX_PROGRAMMED_ANGLE, kappa_g, panel_width)
-        if best < d:
-            held = math.inf
-        else:
-            held = brentq(lambda x: released_angle(spec, x, kappa_g, panel_width) - d, d, MAX_PROGRAMMED_ANGLE,
-                          xtol=1e-12)
+    mp = crease_plastic_moment_per_length(spec)
+    r = panel_unfolding_moment(spec, d, kappa_g, panel_width) / mp
+    denominator = 1.0 - (1.0 - K) * (1.0 + r)
+    held = d / denominator if (r <= 1.0 and denominator > 0.0) else math.inf
     if held > MAX_PROGRAMMED_ANGLE:
         reach = released_angle(spec, MAX_PROGRAMMED_ANGLE, kappa_g, panel_width)
-        raise SpringbackError(
-            f"{crease}: {spec.material.name} {spec.prep.describe()} springs back to at most "
-            f"{math.degrees(reach):.1f} deg, short of the design {math.degrees(d):.1f} deg: "
-            f"{'the elastic panels re-open the crease; hold the panel boundary or use a thicker ligament' if kappa_g else 'the springback is too large'}")
+        cause = ("the elastic panels re-open the crease; hold the panel boundary or use a thicker ligament"
+                 if r > 0 else "the springback is too large")
+        raise SpringbackError(f"{crease}: {spec.material.name} {spec.prep.describe()} springs back to at most "
+                              f"{math.degrees(reach):.1f} deg, short of the design {math.degrees(d):.1f} deg: {cause}")
     return sign * held
