@@ -30,6 +30,7 @@ COMMANDS: dict[str, str] = {
     "generate": "procedural input meshes (trifold, reflect, ...)",
     "info": "measure a mesh or FOLD file (angle defect, planarity, tags) and validate it",
     "tag": "write the panel structure (creases, strips, middle row) as editable # fabkit tags",
+    "materials": "sheet materials: list, validate, calibrate springback from test folds",
     "relax": "dynamic relaxation toward zero angle defect and planar faces",
     "unfold": "planar development with error metrics and cut files",
     "panels": "multi-panel workflow: panelise, relax, unfold, congruency, merge",

@@ -6,7 +6,9 @@ cell, units), `set_tcp`, the gripper output
 switched off, then per waypoint a progress write to an output integer register followed by the move
 (`movej` to the joint solution, `movel` to the TCP pose, each with a/v/r), the gripper switched on
 after the `grip` waypoint and off after `release`, each followed by a dwell. The register finally
-holds the number of waypoints (done).
+holds the number of waypoints (done). When the toolpath has a `payload` record (a sheet material was
+given), `set_payload(mass, cog)` declares the tool at the start and after the release, and tool +
+panel after the grip (kg, metres in the flange frame).
 
 Numbers are printed so that they read back as the same double (shortest round-trip decimal, never
 exponent notation, never the 6 significant digits of iostream defaults). Names from input files
@@ -96,6 +98,14 @@ def write_urscript(tp: Toolpath, *, program_name: str | None = None, progress_re
         f"  set_tcp(p{_list(tp.tcp)})",
         f"  {setter}({out_no}, False)",
     ]
+    payload = tp.extra.get("payload")  # sheet payload (robot.loads.payload_record): tool, tool + panel held
+    if payload:
+        for key in ("tool_mass_kg", "held_mass_kg"):
+            if not 0.0 <= float(payload[key]) <= 50.0:
+                raise ValueError(f"payload {key} {payload[key]!r} is not a mass in [0, 50] kg")
+        tool_payload = f"  set_payload({format_number(payload['tool_mass_kg'])}, {_list(payload['tool_cog_m'])})"
+        held_payload = f"  set_payload({format_number(payload['held_mass_kg'])}, {_list(payload['held_cog_m'])})"
+        lines.append(tool_payload)
     for i, w in enumerate(tp.waypoints):
         lines.append(f"  # waypoint {i}: {sanitise_comment(w['op'])}, fold state {int(w['state'])}")
         lines.append(f"  write_output_integer_register({int(progress_register)}, {i})")
@@ -109,9 +119,13 @@ def write_urscript(tp: Toolpath, *, program_name: str | None = None, progress_re
         if w["op"] == "grip":
             lines.append(f"  {setter}({out_no}, True)")
             lines.append(f"  sleep({format_number(g_dwell)})")
+            if payload:
+                lines.append(held_payload)
         elif w["op"] == "release":
             lines.append(f"  {setter}({out_no}, False)")
             lines.append(f"  sleep({format_number(r_dwell)})")
+            if payload:
+                lines.append(tool_payload)
     lines.append(f"  write_output_integer_register({int(progress_register)}, {len(tp)})")
     lines.append("end")
     return "\n".join(lines) + "\n"

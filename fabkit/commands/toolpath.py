@@ -22,6 +22,16 @@ name and cell file sha256, TCP, gripper, the FOLD file's sha256, every waypoint)
 a URScript program (def ... end) with set_tcp, movej/movel with a/v/r, gripper outputs and progress
 in an output integer register.
 
+With --material (and --thickness), the path follows the springback-compensated fold states: every
+crease is overbent so that it springs back to the design angle on release (the FOLD keeps the
+design angles); PATH.json gains `sheet` (per fold state and crease: design and programmed angles)
+and `payload` (tool, and tool + panel while held, with the CoG in the flange frame), and the program
+sets the payload (set_payload). The fold loads of the creases the arm folds (between the clamped and
+the gripped face) are checked against the arm's wrist torque and rated payload and the cup's holding
+force, per state; exceeded loads are warnings naming the crease and the remedy, or exit 1 with
+--check-loads. Folds tighter than the material's minimum radius are refused
+(exit 2, naming the crease). Models and limits: docs/sheet.md.
+
 Exit codes: 0 ok; 1 the path is unreachable, singular or discontinuous (the message names the
 waypoint and the reason; nothing is written); 2 bad input.
 
@@ -53,6 +63,12 @@ def add_arguments(parser) -> None:
                         help="largest joint change between fold waypoints [deg] (default 5)")
     parser.add_argument("--progress-register", type=int, default=None, metavar="N",
                         help="output integer register for progress in the program (default 3)")
+    from fabkit.commands._sheet import add_sheet_arguments  # sheet hook: --material, --thickness, ...
+
+    add_sheet_arguments(parser, tool_mass=True)
+    parser.add_argument("--check-loads", action="store_true",
+                        help="with --material: fail (exit 1, nothing written) when a fold load exceeds the arm's "
+                             "or the cup's rating (default: record the verdicts and warn)")
     add_common(parser)
 
 
@@ -75,6 +91,8 @@ def _check_args(args) -> None:
         raise InputError(f"{args.max_joint_step} deg is not in [0.1, 30]", source="--max-joint-step")
     if args.tool_yaw is not None and not math.isfinite(args.tool_yaw):
         raise InputError("must be a finite angle", source="--tool-yaw")
+    if args.tool_mass is not None and not (math.isfinite(args.tool_mass) and 0 <= args.tool_mass <= 20):
+        raise InputError(f"{args.tool_mass} kg is not in [0, 20]", source="--tool-mass")
     if args.progress_register is not None and not 0 <= args.progress_register <= 47:
         raise InputError(f"{args.progress_register} is outside 0..47", source="--progress-register")
     if args.output and args.script and Path(args.output).resolve() == Path(args.script).resolve():
@@ -99,6 +117,17 @@ def run(args) -> int:
     check_fold_coordinates(model, source=args.fold)  # a vertex at 1e300 is bad input, not a motion
     if model.n_frames == 0:
         raise InputError("has no fold states (no file_frames)", source=args.fold)
+    # ---- sheet hook: plan on the springback-compensated states (fabkit.sheet, docs/sheet.md) ----
+    from fabkit.commands._sheet import sheet_from_args
+
+    spec = sheet_from_args(args)
+    design_model, compensated = model, None
+    if not spec.rigid:
+        from fabkit.sheet.compensate import compensate_sequence
+
+        compensated = compensate_sequence(model, spec, source=args.fold)
+        model = compensated.model
+    # ---- end of sheet hook ----
     if args.grip_face is not None and "middle" not in model.faces_data:
         frames = face_frames_of(model, args.grip_face, source=args.fold)  # untagged file: the face given
     else:
@@ -121,6 +150,14 @@ def run(args) -> int:
             write_report(args, {**report, "ok": False, "problems": [exc.as_problem()]})
             return 1
     tp = res.toolpath
+    if compensated is not None:  # ---- sheet hook: angles, payload and fold loads into PATH.json ----
+        from fabkit.commands._sheet import toolpath_sheet_record
+
+        tp, loads = toolpath_sheet_record(args, spec, design_model, compensated, cell, tp, res.grip_face)
+        report["loads"] = loads.summary()
+        if args.check_loads and not loads.ok:
+            write_report(args, {**report, "ok": False, "problems": loads.summary()["problems"]})
+            return 1
     script = None
     if args.script:
         reg = PROGRESS_REGISTER if args.progress_register is None else args.progress_register

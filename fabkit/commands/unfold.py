@@ -28,6 +28,11 @@ different face_data "strip" when IN has strip tags, else inferred from the geome
 fold angle jumps against the bending beside them, along chains from boundary to boundary; see
 'fabkit info'); --crease-angle replaces the inference by a bare dihedral threshold.
 
+With --material and --thickness the flat pattern is the sheet's neutral surface: along every crease
+it differs from the design surface's by the K-factor amount BA - 2 (R_i + d) tan(alpha/2), d = 0 for
+a valley and t for a mountain when IN is the top face (--design-surface; docs/sheet.md); folds
+tighter than the material's minimum radius are refused.
+
 Exit codes: 0 ok; 1 a check failed (--max-error, default 1e-3, exceeded, flipped faces, a self-overlapping
 outline or a solver that did not converge: files are still written and the report says which);
 2 bad input (nothing written).
@@ -58,6 +63,12 @@ def add_arguments(parser) -> None:
     parser.add_argument("--crease-angle", type=float, default=None, metavar="DEG",
                         help="untagged panels: edges folded by more than DEG are creases (default: inferred)")
     parser.add_argument("--label-edges", action="store_true", help="write boundary edge ids on the LABEL layer")
+    from fabkit.commands._sheet import add_sheet_arguments  # sheet hook: neutral-surface development
+
+    add_sheet_arguments(parser)
+    parser.add_argument("--design-surface", choices=("top", "mid", "bottom"), default="top",
+                        help="with --material: which surface of the sheet IN is (top = the front face, +z of the "
+                             "flat pattern, up on the cutting table; default top)")
     add_common(parser)
 
 
@@ -126,6 +137,26 @@ def run(args) -> int:
             raise exc.with_source(args.input) from None
     panel_id = args.panel_id if args.panel_id is not None else Path(args.input).stem
     assignment = crease_assignment(mesh, None if args.crease_angle is None else np.radians(args.crease_angle))
+    # ---- sheet hook: develop the neutral surface of a thick sheet (fabkit.unfold.neutral) ----
+    from fabkit.commands._sheet import sheet_from_args
+
+    spec = sheet_from_args(args)
+    sheet_report = None
+    if not spec.rigid:
+        from fabkit.sheet import check_bend_radius
+        from fabkit.unfold.neutral import neutral_development
+
+        folded = np.isin(assignment.edges_assignment, ["M", "V"])
+        if np.any(folded):
+            e = int(np.flatnonzero(folded)[0])
+            check_bend_radius(spec, f"crease edge {e} {tuple(int(v) for v in mesh.edges[e])}")
+        with progress(args, "neutral-surface development", total=None):
+            dev = neutral_development(mesh, dev, spec, folded, args.design_surface,
+                                      **({"norm": args.norm} if args.method == "isometric" else {}))
+        sheet_report = {**spec.summary(), "surface": "neutral", "design_surface": args.design_surface,
+                        "face_up": f"{args.design_surface} face of the design (cut files are seen from it)",
+                        "crease_strip_mm": dev.details.get("crease_strip_mm")}
+    # ---- end of sheet hook ----
     pattern = cut_pattern(mesh, dev.uv, assignment, panel_id, label_edges=args.label_edges) \
         if (args.dxf or args.svg) else None
 
@@ -155,6 +186,8 @@ def run(args) -> int:
         "unit": "m",
         "loaded": loaded.to_report(),
     }
+    if sheet_report is not None:
+        report["sheet"] = sheet_report
     # Every output goes to a temporary file first; all are renamed only when all were written.
     with contextlib.ExitStack() as stack:
         tmp = {k: stack.enter_context(atomic_path(v)) for k, v in outputs.items() if v}
