@@ -25,6 +25,9 @@ Presets (parameters in brackets, defaults after '='; lengths in metres, angles i
   canopy   the multi-panel workflow's wave-like canopy low-poly (3 vertices across: planar arcs
            after Catmull-Clark; input of `fabkit panels`) [length=6 width=2.4 height=2.2 arch=0.5
            wave=0.35 waves=2 stations=9 sweep=0.3]
+  pleated  the canopy corrugated by alternating mountain/valley creases along its planar arcs, one
+           crease per band (a high-resolution quad grid; input of `fabkit panels`, which puts each
+           crease inside its band's panels) [rows=14 fold=30 levels=4 and the canopy's parameters]
   cube     a closed cube [size=1 subdivide=0]
   prism    a closed right prism over a regular polygon [sides=6 radius=0.5 height=1 subdivide=0]
   grid     a flat quad grid in z=0 [nx=10 ny=10 size_x=1 size_y=1]
@@ -97,6 +100,13 @@ def _build_canopy(p: dict):
                           waves=p["waves"], stations=p["stations"], sweep=p["sweep"])
 
 
+def _build_pleated(p: dict):
+    from fabkit.generate.pleated import pleated_canopy
+
+    canopy = {k: p[k] for k in ("length", "width", "height", "arch", "wave", "waves", "stations", "sweep")}
+    return pleated_canopy(rows=p["rows"], fold=_deg(p["fold"]), levels=p["levels"], **canopy)
+
+
 def _build_cube(p: dict):
     from fabkit.generate.polyhedra import cube
     from fabkit.generate.subdivide import catmull_clark
@@ -142,6 +152,19 @@ PRESETS: dict[str, tuple[Callable, dict[str, Param]]] = {
         "rows": Param(int, 1, "rows of faces per strip (a power of 2)", True),
     }),
     "canopy": (_build_canopy, {
+        "length": Param(float, 6.0, "canopy length along x [m]", True),
+        "width": Param(float, 2.4, "canopy width [m]", True),
+        "height": Param(float, 2.2, "ridge height [m]", True),
+        "arch": Param(float, 0.5, "extra rise of the ridge above the wave [m]"),
+        "wave": Param(float, 0.35, "amplitude of the ridge wave [m]"),
+        "waves": Param(int, 2, "wave periods along the canopy", True),
+        "stations": Param(int, 9, "low-poly vertices along the canopy (>= 3)", True),
+        "sweep": Param(float, 0.3, "sideways sweep of the ridge [m]"),
+    }),
+    "pleated": (_build_pleated, {
+        "rows": Param(int, 14, "bands = creases, an even number", True),
+        "fold": Param(float, 30.0, "dihedral angle at the creases [deg]", True),
+        "levels": Param(int, 4, "Catmull-Clark levels of the canopy low-poly", True),
         "length": Param(float, 6.0, "canopy length along x [m]", True),
         "width": Param(float, 2.4, "canopy width [m]", True),
         "height": Param(float, 2.2, "ridge height [m]", True),
@@ -228,6 +251,9 @@ def _estimate_faces(preset: str, p: dict) -> int:
         return p["nx"] * p["ny"]
     if preset == "canopy":
         return 2 * p["stations"]
+    if preset == "pleated":
+        k = 2 ** min(p["levels"], 20)
+        return 2 * k * (p["stations"] - 1) * k
     if preset in ("cube", "prism"):
         base = 6 if preset == "cube" else 2 * p["sides"]
         return base * 4 ** min(p["subdivide"], 20)
