@@ -106,6 +106,19 @@ def _sha(text: str | bytes) -> str:
     return hashlib.sha256(text.encode() if isinstance(text, str) else text).hexdigest()
 
 
+def _mostly_valley(mesh) -> bool:
+    """True when the panel's creases fold mostly as valleys (seen from its front, FOLD sign +).
+
+    Such a panel is laid back face up, so every panel is folded as mountains seen from above (on
+    the pleated vault in cells/ur5e_bench.toml: 6 of 8 panels plan and check that way, 4 of 8 with
+    the valleys up)."""
+    from fabkit.cutfiles.creases import crease_assignment
+
+    ca = crease_assignment(mesh)
+    c = np.isin(ca.edges_assignment, ("M", "V"))
+    return bool(c.any() and ca.edges_fold_angle[c].sum() > 0)
+
+
 def _clamped_face(fd: dict) -> int | None:
     """The face the fixture clamps: the middle face of strip 0 (the strip the robot does not move)."""
     if "middle" not in fd or "strip" not in fd:
@@ -139,15 +152,21 @@ def refold_and_program(task: dict) -> dict:
     t0 = time.perf_counter()
     name = task["name"]
     out = {"id": task["id"], "name": name, "stage": None, "reason": "", "fold": None, "toolpath": None,
-           "check": None, "cycle_time_s": None, "grip_face": None, "refold": None}
+           "check": None, "cycle_time_s": None, "grip_face": None, "refold": None, "face_up_on_fixture": None}
     faces = np.asarray(task["faces"])
     fd = {k: np.asarray(v) for k, v in task["face_data"].items()}
     uv = np.asarray(task["uv"], dtype=np.float64)
     clamped = _clamped_face(fd)
     if clamped is not None:
         uv = _panel_frame(uv, faces, fd, clamped, task.get("side", (0.0, 1.0)))
-    flat = PolyMesh(np.column_stack([uv, np.zeros(len(uv))]), faces, face_data=fd)
     target = PolyMesh(np.asarray(task["relaxed"]), faces, face_data=fd)
+    back_up = _mostly_valley(target)
+    if back_up:  # lay the sheet back face up on the fixture: its valleys become mountains seen from above
+        faces = faces[:, ::-1]
+        uv = uv * np.array([1.0, -1.0])
+        target = PolyMesh(np.asarray(task["relaxed"]), faces, face_data=fd)
+    flat = PolyMesh(np.column_stack([uv, np.zeros(len(uv))]), faces, face_data=fd)
+    out["face_up_on_fixture"] = "back" if back_up else "front"
     try:
         solver = RefoldSolver(flat, target, fixed_face=clamped, length_rtol=task["length_tol"],
                               flat_name=f"{name} flat", target_name=f"{name} relaxed")
@@ -235,12 +254,37 @@ def _store(out: Path, r: dict) -> dict:
     return files
 
 
+#: A crease counts as kept when the relaxed panel's mean fold along it is at least this fraction of
+#: the input surface's.
+CREASE_KEPT = 0.5
+
+
+def crease_loss(panel, relaxed: np.ndarray) -> str | None:
+    """A reason when the relaxation flattened the panel's crease (nothing left for the robot to fold)."""
+    from fabkit.cutfiles.creases import crease_assignment
+
+    if "strip" not in panel.mesh.face_data:
+        return None
+    before = crease_assignment(panel.mesh)
+    after = crease_assignment(panel.mesh.with_vertices(relaxed))
+    c = np.isin(before.edges_assignment, ("M", "V", "U"))
+    f0 = float(np.abs(before.edges_fold_angle[c]).mean())
+    f1 = float(np.abs(after.edges_fold_angle[c]).mean())
+    if f1 < CREASE_KEPT * f0:
+        return (f"the relaxation flattened the crease: mean fold {np.degrees(f0):.1f} deg on the surface, "
+                f"{np.degrees(f1):.1f} deg after")
+    return None
+
+
 def geometry_status(geometry, panel) -> tuple[str, str] | None:
     """(stage, reason) when the relax or unfold of `panel` misses its tolerance, else None."""
     r = geometry.results[panel.id]
     o = geometry.options
     if not r.converged:
         return "relax", r.message
+    flattened = crease_loss(panel, r.relaxed)
+    if flattened:
+        return "relax", flattened
     why = []
     if r.unfold_max > o.tol_unfold:
         why.append(f"max deviation {r.unfold_max:.3g} > {o.tol_unfold:g}")
@@ -316,7 +360,8 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
                 files = _store(out, r)
                 entries[r["name"]] = {"hash": keys[pid], "stage": r["stage"], "reason": r["reason"], "files": files,
                                       "cycle_time_s": r["cycle_time_s"], "grip_face": r["grip_face"],
-                                      "refold": r["refold"], "seconds": r.get("seconds")}
+                                      "refold": r["refold"], "seconds": r.get("seconds"),
+                                      "face_up_on_fixture": r.get("face_up_on_fixture")}
                 _write_manifest(out, manifest)
                 statuses[pid] = (r["stage"], r["reason"], files, r["cycle_time_s"], r["grip_face"])
                 recomputed.add(pid)
