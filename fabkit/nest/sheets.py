@@ -4,8 +4,9 @@ Layers:
 - `CUT` outlines (closed LWPOLYLINE), `RELIEF` relief holes where a crease meets the outline
   (CIRCLE, diameter `relief_factor * t`, at least t/2, the sheet-metal rule of thumb), both cut through;
 - `MOUNTAIN` / `VALLEY` the creases as true curves: a DXF SPLINE through the crease polyline's
-  vertices (ezdxf `fit_points_to_cad_cv`), kept only when it stays within `SPLINE_TOL_MM` of the
-  polyline (measured: Hausdorff distance of the spline, sampled, to the polyline), else the polyline;
+  vertices (ezdxf `fit_points_to_cad_cv`), kept only when it stays within `spline_allowance` of
+  the polyline (measured: Hausdorff distance of the spline, sampled, to the polyline), else the
+  polyline;
 - `GROOVE_TOP` / `GROOVE_BOTTOM` V-groove centre lines of the valley / mountain creases (a groove
   goes on the inside of the bend: the front face for a valley, the back face for a mountain; the
   drawing shows both seen from the front). Depth and angle are in the layer description;
@@ -31,16 +32,30 @@ from shapely.geometry import LineString
 from fabkit.cutfiles.creases import chain_edges, crease_assignment
 from fabkit.io.atomic import atomic_path, atomic_write
 
-__all__ = ["write_sheets", "sheet_drawing", "SPLINE_TOL_MM", "spline_deviation", "SHEET_LAYERS"]
+__all__ = ["write_sheets", "sheet_drawing", "SPLINE_TOL_MM", "spline_allowance", "spline_deviation", "SHEET_LAYERS"]
 
-#: Largest distance [mm] a crease SPLINE may have from the crease polyline it replaces (the spline
-#: passes through every polyline vertex; between them it bows by about the sagitta of the curve).
-#: 0.5 mm: within the placement accuracy of a routed groove.
-SPLINE_TOL_MM = 0.5
+#: Tolerance [mm] of a crease SPLINE: it passes through every vertex of the crease polyline and may
+#: leave the polyline by at most this plus the polyline's own chord error (the sagitta c^2 k / 8 of
+#: its longest chord c at the largest discrete curvature k, where the smooth crease runs off the
+#: chords too); `spline_allowance`.
+SPLINE_TOL_MM = 0.05
 #: layer -> (DXF colour, SVG colour)
 SHEET_LAYERS = {"CUT": (7, "#000000"), "RELIEF": (7, "#000000"), "MOUNTAIN": (1, "#d62728"),
                 "VALLEY": (5, "#1f4fd6"), "GROOVE_TOP": (4, "#0aa"), "GROOVE_BOTTOM": (6, "#b0b"),
                 "LABEL": (3, "#2ca02c")}
+
+
+def spline_allowance(points: np.ndarray) -> float:
+    """Allowed Hausdorff distance [mm] of a crease spline from its polyline (see `SPLINE_TOL_MM`)."""
+    P = np.asarray(points, float)
+    if len(P) < 3:
+        return SPLINE_TOL_MM
+    a, b, c = P[:-2], P[1:-1], P[2:]
+    ab, bc, ca = (np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1))
+    cross = np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+    kappa = 2 * cross / np.maximum(ab * bc * ca, 1e-300)  # curvature of the circle through 3 vertices
+    chord = np.linalg.norm(np.diff(P, axis=0), axis=1).max()
+    return SPLINE_TOL_MM + chord ** 2 * float(kappa.max()) / 8
 
 
 def spline_deviation(points: np.ndarray, bspline, samples_per_segment: int = 8) -> float:
@@ -146,7 +161,7 @@ def _dxf(drawings: list[dict], sheet_size, thickness_mm: float) -> tuple["ezdxf.
                 if len(pts) >= 3:
                     bs = fit_points_to_cad_cv([(float(x), float(y), 0.0) for x, y in pts])
                     dev = spline_deviation(pts, bs)
-                    if dev <= SPLINE_TOL_MM:
+                    if dev <= spline_allowance(pts):
                         msp.add_spline(dxfattribs={"layer": layer}).apply_construction_tool(bs)
                         stats["splines"] += 1
                         stats["max_spline_deviation_mm"] = max(stats["max_spline_deviation_mm"], dev)
