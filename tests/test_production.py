@@ -189,3 +189,59 @@ def test_second_surface_built_here_plain_obj_permuted(tmp_path):
         if p.ok:
             assert set(p.files) == {"refold", "program", "check"}
     assert any(p.ok for p in run.panels)
+
+
+def test_book_is_self_contained_and_lists_every_panel(produced):
+    import re
+
+    out, rep = produced["out"], produced["report"]
+    page = (out / "book.html").read_text()
+    assert not re.search(r"""(src|href)=['"]https?://""", page)
+    assert page.count("data:image/png;base64,") == 3 + len(rep["sheets"])  # 3 surface views + the sheets
+    for p in rep["panels"]:
+        assert p["name"] in page
+
+
+def test_book_table_in_headless_chromium(produced, tmp_path):
+    """The panel table is built by the page's script: read it back from the DOM chromium produced."""
+    import html.parser
+    import shutil
+    import tempfile
+
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("Debian chromium not installed (scripts/system-deps.sh installs it)")
+    out, rep = produced["out"], produced["report"]
+    with tempfile.TemporaryDirectory() as profile:
+        r = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+                            "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                            f"--user-data-dir={profile}", "--dump-dom", (out / "book.html").as_uri()],
+                           capture_output=True, text=True, timeout=90, check=True)
+
+    class Rows(html.parser.HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.inside, self.rows, self.links = False, [], []
+
+        def handle_starttag(self, tag, attrs):
+            a = dict(attrs)
+            if tag == "table" and a.get("id") == "panels":
+                self.inside = True
+            elif self.inside and tag == "tr" and "data-panel" in a:
+                self.rows.append(a["data-panel"])
+            elif self.inside and tag == "a":
+                self.links.append(a["href"])
+
+        def handle_endtag(self, tag):
+            if tag == "table":
+                self.inside = False
+
+    parser = Rows()
+    parser.feed(r.stdout)
+    assert sorted(parser.rows) == sorted(p["name"] for p in rep["panels"])
+    assert parser.rows == sorted(parser.rows)  # sorted by panel name on load
+    for link in parser.links:  # every link in the table points at a file the run wrote
+        assert (out / link).is_file(), link
+    ok = [p for p in rep["panels"] if p["ok"]]
+    for kind in ("refold", "program", "check", "dxf"):
+        assert sum(link == p["files"][kind] for p in ok for link in parser.links) == len(ok)
