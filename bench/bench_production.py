@@ -27,7 +27,8 @@ def main() -> dict:
     from fabkit.nest import NestOptions, nest_panels, write_sheets
     from fabkit.panels.layout import layout_panels
     from fabkit.panels.output import write_run
-    from fabkit.panels.production import MATERIALS, run_production, summary
+    from fabkit.panels.production import MATERIALS, run_production
+    from fabkit.panels.production_report import summary
     from fabkit.panels.surface import GridSurface, grid_from_topology
     from fabkit.report.book import write_book
     rows = []

@@ -58,7 +58,8 @@ def _overrides(path: str | None) -> dict:
 def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     from fabkit.nest import NestOptions, nest_panels, write_sheets
     from fabkit.panels.output import write_run
-    from fabkit.panels.production import ProductionOptions, material, run_production, summary
+    from fabkit.panels.production import ProductionOptions, material, run_production
+    from fabkit.panels.production_report import summary
     from fabkit.panels.workflow import PanelsOptions
     from fabkit.report.book import write_book
     from sim.production import program_panel
