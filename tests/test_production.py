@@ -87,6 +87,9 @@ def test_every_panel_is_programmed_and_checked_or_named(produced):
     assert rep["totals"]["ok"] >= 3  # measured: all 4 plan and check in the bench cell
     for p in rep["panels"]:
         assert (out / p["files"]["dxf"]).is_file()
+        pattern = json.loads((out / p["files"]["crease_pattern"]).read_text())
+        assert {"M", "V"} & set(pattern["edges_assignment"])  # every panel of the pleated preset has a crease
+        assert "middle-row" not in p["reason"]  # and refold finds its middle-row hinges
         if not p["ok"]:
             assert p["status"] in ("relax", "unfold", "refold", "program", "check") and p["reason"]
             continue
