@@ -5,9 +5,9 @@ geometry files, nesting, sheets and book. Target: <= 120 s in all. Baseline in t
 bounding-box shelf packing, against which sparrow's nesting utilisation is compared (target
 >= 75 %).
 
-FABKIT_BENCH_PROGRAMS=N programs and checks only the first N panels (the rest end with the reason
-"not programmed in this bench run"), to measure the other stages on a shared machine; the per-panel
-cost is printed so the full run can be judged. Default: every panel.
+FABKIT_BENCH_PROGRAMS=N refolds, programs and checks only the first N panels (`select`; the rest
+end "not selected"), to measure the other stages on a shared machine; the per-panel cost and the
+extrapolated total are printed so the full run can be judged. Default: every panel.
 """
 from __future__ import annotations
 
@@ -31,6 +31,7 @@ def main() -> dict:
     from fabkit.panels.production_report import summary
     from fabkit.panels.surface import GridSurface, grid_from_topology
     from fabkit.report.book import write_book
+    from sim.production import program_panel
     rows = []
     jobs = 2
     t_all = time.perf_counter()
@@ -45,8 +46,8 @@ def main() -> dict:
     with tempfile.TemporaryDirectory(prefix="fabkit-bench-production-") as tmp:
         out = Path(tmp) / "run"
         subset = {p.name for p in layout.panels[:n_prog]}
-        run = run_production(layout, out, cell_toml=CELL.read_text(), cell_name=CELL.name,
-                             program=_SubsetProgram(subset), jobs=jobs, mat=mat, timeout=3600)
+        run = run_production(layout, out, cell_toml=CELL.read_text(), cell_name=CELL.name, program=program_panel,
+                             jobs=jobs, mat=mat, timeout=3600, select=subset)
         t0 = time.perf_counter()
         write_run(run.geometry, out, plots=False, cut_files=True)
         t_files = time.perf_counter() - t0
@@ -61,7 +62,7 @@ def main() -> dict:
         write_book(run, nests["packingsolver"], rep, out)
         t_book = time.perf_counter() - t0
         total = time.perf_counter() - t_all
-        programmed = [p for p in run.panels if p.stage != "program" or "not programmed" not in p.reason]
+        programmed = [p for p in run.panels if p.name in subset]
         per_panel = run.seconds["refold_program_check"] / max(1, len(programmed))
         sh, sp = nests["shelf"].nesting, nests["packingsolver"].nesting
         rows.append({"case": f"{len(layout.panels)} panels, {len(programmed)} programmed + checked", "workers": jobs,
@@ -84,22 +85,6 @@ def main() -> dict:
                                                              / sh.used_length_utilisation(nests["shelf"].parts))
     return report("production", rows, {"panels": len(layout.panels), "programmed": n_prog,
                                        "spline/relief": "see sheets"})
-
-
-class _SubsetProgram:
-    """`program_panel` for the panels in `names`; the others end at the program stage with a reason."""
-
-    def __init__(self, names):
-        self.names = frozenset(names)
-        self.__qualname__ = f"_SubsetProgram[{len(self.names)}]"  # part of the cache key of each task
-
-    def __call__(self, fold_text, fold_name, cell_toml, cell_name, thickness):
-        from sim.production import program_panel
-
-        if fold_name.replace("_refold.fold", "") not in self.names:
-            return {"stage": "program", "reason": "not programmed in this bench run", "toolpath": None, "check": None,
-                    "cycle_time_s": None, "grip_face": None}
-        return program_panel(fold_text, fold_name, cell_toml, cell_name, thickness)
 
 
 if __name__ == "__main__":

@@ -192,6 +192,10 @@ def test_second_surface_built_here_plain_obj_permuted(tmp_path):
         if p.ok:
             assert set(p.files) == {"refold", "program", "check"}
     assert any(p.ok for p in run.panels)
+    # select: only the named panels go past the unfold
+    none = run_production(L, tmp_path / "none", cell_toml=CELL.read_text(), cell_name=CELL.name, program=program_panel,
+                          select=set())
+    assert all(p.stage == "refold" and "not selected" in p.reason and not p.files for p in none.panels)
 
 
 def test_book_is_self_contained_and_lists_every_panel(produced):

@@ -301,13 +301,15 @@ def geometry_status(geometry, panel) -> tuple[str, str] | None:
 def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name: str, program: Callable,
                    panels_options=None, options: ProductionOptions = ProductionOptions(),
                    mat: Material = MATERIALS["aluminium-1.0"], jobs: int = 1, scheduler: str | None = None,
-                   progress: Callable | None = None, timeout: float | None = None) -> ProductionRun:
+                   progress: Callable | None = None, timeout: float | None = None,
+                   select=None) -> ProductionRun:
     """Run every stage for every panel of `layout` into folder `out` (see the module docstring).
 
     `program(fold_text, fold_name, cell_toml, cell_name, thickness) -> dict` plans and checks one
     panel (`sim.production.program_panel`). `progress(stage, done, total)` is called as panels
     finish a stage. Per-panel files go to `out/panels/`; the geometry files (OBJ, crease-pattern
-    FOLD, DXF/SVG) are written by the caller (`fabkit.panels.output.write_run`).
+    FOLD, DXF/SVG) are written by the caller (`fabkit.panels.output.write_run`). `select`: panel
+    names to take past the unfold (None: all); the others end at stage "refold", "not selected".
     """
     from fabkit.panels.cache import ResultCache
     from fabkit.panels.executor import panel_executor, single_threaded
@@ -339,6 +341,9 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
         if bad:
             statuses[p.id] = (bad[0], bad[1], {}, None, None)
             entries[p.name] = {"hash": None, "stage": bad[0], "reason": bad[1], "files": {}}
+            continue
+        if select is not None and p.name not in select:
+            statuses[p.id] = ("refold", "not selected for refold, program and check in this run", {}, None, None)
             continue
         task = _program_task(p, geometry.results[p.id], options, cell_toml, cell_name, mat, program)
         key = hashlib.sha256((PROGRAM_SALT + cache.key(task)).encode()).hexdigest()
