@@ -128,7 +128,7 @@ def book_html(run, report: dict, out: Path) -> str:
         sheets.append(f'<figure><img alt="sheet {s["sheet"]}" src="{uri}"><figcaption>sheet {s["sheet"]}: '
                       f'{len(s["panels"])} panels, {s["utilisation"]:.0%} of the sheet; <a href="{e(s["dxf"])}">DXF</a> '
                       f'<a href="{e(s["svg"])}">SVG</a></figcaption></figure>')
-    fail_rows = "".join(f"<tr><td>{e(k)}</td><td>{v}</td></tr>" for k, v in sorted(t["failed_by_stage"].items()))
+    fail_rows = "".join(f"<tr><td>failed at {e(k)}</td><td>{v}</td></tr>" for k, v in sorted(t["failed_by_stage"].items()))
     asm = report["assembly"]["panels"]
     asm_rows = "".join(
         f"<tr><td>{a['step']}</td><td>{e(a['id'])}</td><td>{e(', '.join(a['joins']) or '—')}</td>"
