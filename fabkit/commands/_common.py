@@ -2,15 +2,10 @@
 from __future__ import annotations
 
 import contextlib
-import json
-import math
 import sys
-from pathlib import Path
-from typing import Any, Iterator
+from typing import Iterator
 
-import numpy as np
-
-from fabkit.io.atomic import atomic_write
+from fabkit.io.jsonfile import to_jsonable, write_json  # noqa: F401  (re-exported for the commands)
 
 
 def add_common(parser) -> None:
@@ -41,37 +36,6 @@ def say(args, text: str) -> None:
     """Print a human summary line unless --quiet."""
     if not getattr(args, "quiet", False):
         print(text)
-
-
-def to_jsonable(obj: Any) -> Any:
-    """Convert numpy scalars/arrays and dataclasses to plain JSON values (NaN/Inf -> None)."""
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        f = float(obj)
-        return f if math.isfinite(f) else None
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.bool_,)):
-        return bool(obj)
-    if isinstance(obj, Path):
-        return str(obj)
-    if hasattr(obj, "__dataclass_fields__"):
-        import dataclasses
-
-        return to_jsonable(dataclasses.asdict(obj))
-    return obj
-
-
-def write_json(path: str | Path, data: Any) -> None:
-    """Write JSON atomically (temporary file + rename)."""
-    with atomic_write(path) as fh:
-        json.dump(to_jsonable(data), fh, indent=1, allow_nan=False)
-        fh.write("\n")
 
 
 def write_report(args, data: dict) -> None:

@@ -25,6 +25,10 @@ Presets (parameters in brackets, defaults after '='; lengths in metres, angles i
   canopy   the multi-panel workflow's wave-like canopy low-poly (3 vertices across: planar arcs
            after Catmull-Clark; input of `fabkit panels`) [length=6 width=2.4 height=2.2 arch=0.5
            wave=0.35 waves=2 stations=9 sweep=0.3]
+  pleated  a vault pleated by alternating mountain/valley curved creases along planar arcs, exactly
+           developable (reflection method), one crease per band (input of `fabkit panels`, which puts
+           each crease inside its band's panels) [rows=14 fold=40 radius=1.5 arc=90 length=6
+           columns=42 rows_per_band=8]
   cube     a closed cube [size=1 subdivide=0]
   prism    a closed right prism over a regular polygon [sides=6 radius=0.5 height=1 subdivide=0]
   grid     a flat quad grid in z=0 [nx=10 ny=10 size_x=1 size_y=1]
@@ -97,6 +101,13 @@ def _build_canopy(p: dict):
                           waves=p["waves"], stations=p["stations"], sweep=p["sweep"])
 
 
+def _build_pleated(p: dict):
+    from fabkit.generate.pleated import pleated_vault
+
+    return pleated_vault(rows=p["rows"], fold=_deg(p["fold"]), radius=p["radius"], arc=_deg(p["arc"]),
+                         length=p["length"], columns=p["columns"], rows_per_band=p["rows_per_band"])
+
+
 def _build_cube(p: dict):
     from fabkit.generate.polyhedra import cube
     from fabkit.generate.subdivide import catmull_clark
@@ -150,6 +161,15 @@ PRESETS: dict[str, tuple[Callable, dict[str, Param]]] = {
         "waves": Param(int, 2, "wave periods along the canopy", True),
         "stations": Param(int, 9, "low-poly vertices along the canopy (>= 3)", True),
         "sweep": Param(float, 0.3, "sideways sweep of the ridge [m]"),
+    }),
+    "pleated": (_build_pleated, {
+        "rows": Param(int, 14, "bands = creases, an even number", True),
+        "fold": Param(float, 40.0, "fold angle of every crease at the vault's middle [deg]", True),
+        "radius": Param(float, 1.5, "vault radius [m]", True),
+        "arc": Param(float, 90.0, "angle the vault spans around its axis [deg]", True),
+        "length": Param(float, 6.0, "vault length along its axis [m]", True),
+        "columns": Param(int, 42, "quads around the vault (panels per band x columns per panel)", True),
+        "rows_per_band": Param(int, 8, "quads along the axis per band, even (the crease in the middle)", True),
     }),
     "cube": (_build_cube, {
         "size": Param(float, 1.0, "edge length [m]", True),
@@ -234,6 +254,8 @@ def _estimate_faces(preset: str, p: dict) -> int:
         return p["nx"] * p["ny"]
     if preset == "canopy":
         return 2 * p["stations"]
+    if preset == "pleated":
+        return p["rows"] * p["rows_per_band"] * p["columns"]
     if preset in ("cube", "prism"):
         base = 6 if preset == "cube" else 2 * p["sides"]
         return base * 4 ** min(p["subdivide"], 20)

@@ -22,9 +22,21 @@ Writes DIR/panels/<name>.{obj,_flat.obj,fold,dxf,svg}, DIR/band_layout.json, plo
 DIR/report.json. Exit 1 when a panel or a shared edge misses its tolerance (the report says which
 and why).
 
+A surface with creases (`fabkit generate pleated`) gets one band per crease, the crease inside its
+panels (their middle column of faces crosses it); --rows may then be left out.
+
+Production run (--cell CELL.toml): every panel is also refolded (§3.6, middle-row creases driven),
+programmed (robot toolpath) and checked in the MuJoCo cell; the flat patterns are nested on stock
+sheets (--sheet) and written as one DXF/SVG per sheet, and DIR/book.html shows it all. Per-panel
+status (ok, or the stage and the reason) goes to DIR/manifest.json and DIR/production.json; a rerun
+recomputes only panels whose inputs or options changed (content hashes). --scheduler ADDR runs the
+per-panel work on a dask.distributed cluster (docs/production.md).
+
 example:
   fabkit generate canopy -o canopy.obj
   fabkit panels canopy.obj -o canopy-panels --rows 14 --cols 7 --jobs 2
+  fabkit generate pleated -o pleated.obj
+  fabkit panels pleated.obj -o pleated-run --cols 7 --cell cells/ur5e_bench.toml --material aluminium-1.0
 """
 
 
@@ -35,7 +47,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     add_units(p)
     p.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
-    p.add_argument("--rows", type=int, default=14, help="bands between arcs, an even number (default 14)")
+    p.add_argument("--rows", type=int, default=None,
+                   help="bands between arcs, an even number (default 14; a creased surface: one per crease)")
     p.add_argument("--cols", type=int, default=7, help="panels per aligned band (default 7)")
     p.add_argument("--columns-per-panel", type=int, default=6, help="mesh columns per panel, even (default 6)")
     p.add_argument("--levels", type=int, default=4, help="Catmull-Clark levels for a low-poly input (default 4)")
@@ -52,6 +65,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "(the paper's original scheme: neighbours then disagree and the merge absorbs it)")
     p.add_argument("--no-cut-files", action="store_true", help="skip the DXF/SVG cut files")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    g = p.add_argument_group("production run")
+    g.add_argument("--cell", metavar="CELL.toml", help="robot cell: refold, program and check every panel")
+    g.add_argument("--material", default="aluminium-1.0", help="sheet stock (default aluminium-1.0; see docs/production.md)")
+    g.add_argument("--frames", type=int, default=8, help="refold states per panel, flat and folded included (default 8)")
+    g.add_argument("--overrides", metavar="FILE.json", help='per-panel options, e.g. {"P003_b00_03": {"frames": 12}}')
+    g.add_argument("--sheet", default="2500x1250", metavar="WxH", help="stock sheet size in mm (default 2500x1250)")
+    g.add_argument("--spacing", type=float, default=10.0, help="gap between parts and to the sheet edge, mm (default 10)")
+    g.add_argument("--kerf", type=float, default=0.2, help="cutting kerf in mm, added to the spacing (default 0.2)")
+    g.add_argument("--grain", choices=("none", "x", "y"), default="none",
+                   help="keep each panel's arcs along the sheet's grain direction (default: any rotation)")
+    g.add_argument("--nester", choices=("packingsolver", "shelf"), default="packingsolver",
+                   help="nesting engine (default packingsolver; shelf: bounding-box shelf packing)")
+    g.add_argument("--nest-seconds", type=float, default=30.0, help="time limit of the nesting solver (default 30)")
     add_common(p)
 
 
@@ -116,6 +142,10 @@ def run(args) -> int:
         check_scheduler(args.scheduler)
     surface, lowpoly = load_surface(args.surface, args.levels, args.units)
     layout = layout_panels(surface, rows=args.rows, cols=args.cols, columns_per_panel=args.columns_per_panel)
+    if args.cell:
+        from fabkit.commands.produce import run_production_command
+
+        return run_production_command(args, surface, lowpoly, layout)
     options = PanelsOptions(tol_congruency=args.tolerance, tol_unfold=args.unfold_tolerance,
                             max_rounds=args.max_rounds, symmetric=args.symmetric,
                             keep_shared_edges=not args.free_shared_edges)

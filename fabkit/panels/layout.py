@@ -11,6 +11,11 @@ Definitions (the paper shows them only in figures, so they are fixed here):
   points* (conical apexes, held fixed by the solver). Successive pairs are offset by half a panel
   (their first and last panels are half panels), so the arcs between pairs carry only T-junctions.
   Pair m's offset is `min(m, pairs-1-m) % 2`, which keeps the layout mirror-symmetric.
+- Creases (a pleated surface): grid rows where the surface kinks (`crease_rows`) become the
+  bands' middles: one crease per band, the band boundaries (arcs) halfway between neighbouring
+  creases, so every panel's middle column of faces crosses its band's crease. Faces carry
+  `strip` (0 before the crease, 1 after), `column` and `middle` (one face per strip, in the
+  middle column) tags: the refold's and toolpath's contract for the hinges the robot drives.
 - Count: an aligned pair of bands with `cols` panels each has `cols - 1` interior four-panel
   corners, an offset pair `cols` of them (its `cols + 1` panels include two halves); the paper's
   n/2 is the large-`cols` limit. `PanelLayout.singularity_ratio` reports the measured ratio.
@@ -25,7 +30,10 @@ from fabkit.errors import InputError
 from fabkit.mesh import PolyMesh
 from fabkit.panels.surface import GridSurface
 
-__all__ = ["Panel", "PanelLayout", "layout_panels", "resample_rows"]
+__all__ = ["Panel", "PanelLayout", "layout_panels", "resample_rows", "crease_rows", "CREASE_ANGLE"]
+
+#: A grid row whose faces meet at more than this mean dihedral angle is a crease [rad] (5 degrees).
+CREASE_ANGLE = np.radians(5.0)
 
 
 @dataclass(frozen=True)
@@ -56,6 +64,7 @@ class PanelLayout:
     singular_keys: np.ndarray   # global keys of the four-panel corners
     pair_offsets: np.ndarray    # offset (0/1 half panel) of every band pair
     shared_edges: tuple = field(default=())  # (panel_a, edge_a, panel_b, edge_b) per shared boundary edge
+    creases: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # crease grid rows
 
     @property
     def singularity_ratio(self) -> float:
@@ -87,9 +96,43 @@ def _grid_quads(n_r: int, n_c: int) -> np.ndarray:
     return np.stack([a, a + 1, a + n_c + 2, a + n_c + 1], axis=-1).reshape(-1, 4)
 
 
-def layout_panels(surface: GridSurface, rows: int = 14, cols: int = 3, columns_per_panel: int = 6) -> PanelLayout:
-    """Panelise `surface` into `rows` bands (in pairs) of `cols` panels (offset pairs: cols + 1)."""
+def crease_rows(surface: GridSurface, min_angle: float = CREASE_ANGLE) -> np.ndarray:
+    """Interior grid rows along which the surface kinks: the mean angle between the normals of the
+    quads on either side exceeds `min_angle` and is a local maximum over the rows."""
+    P = surface.points
+    n = np.cross(P[1:, 1:] - P[:-1, :-1], P[:-1, 1:] - P[1:, :-1])  # quad (i, j) normals from diagonals
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
+    if n.shape[1] < 2:
+        return np.zeros(0, np.int64)
+    turn = np.arccos(np.clip(np.einsum("ijk,ijk->ij", n[:, :-1], n[:, 1:]), -1.0, 1.0)).mean(axis=0)
+    padded = np.concatenate([[0.0], turn, [0.0]])
+    peak = (turn > min_angle) & (turn >= padded[:-2]) & (turn >= padded[2:])
+    return np.flatnonzero(peak).astype(np.int64) + 1  # row j lies between quad rows j-1 and j
+
+
+def _arcs_between(creases: np.ndarray, nv: int) -> np.ndarray:
+    """Band boundaries halfway between neighbouring creases (rounded mirror-symmetrically)."""
+    R = len(creases)
+    mid = [(creases[b - 1] + creases[b]) // 2 if 2 * b <= R else -((-(creases[b - 1] + creases[b])) // 2)
+           for b in range(1, R)]
+    return np.array([0, *mid, nv - 1], dtype=np.int64)
+
+
+def layout_panels(surface: GridSurface, rows: int | None = None, cols: int = 3,
+                  columns_per_panel: int = 6) -> PanelLayout:
+    """Panelise `surface` into `rows` bands (in pairs) of `cols` panels (offset pairs: cols + 1).
+
+    A surface with creases (`crease_rows`) gets one band per crease, the crease in its middle;
+    `rows` must then be None or the number of creases. Without creases `rows` defaults to 14.
+    """
     nu, nv = surface.shape
+    creases = crease_rows(surface)
+    if len(creases):
+        if rows is not None and rows != len(creases):
+            raise InputError(f"the surface has {len(creases)} creases, one per band: rows must be {len(creases)} "
+                             f"(or left out), got {rows}")
+        rows = len(creases)
+    rows = 14 if rows is None else rows
     if rows < 2 or rows % 2:
         raise InputError(f"rows must be an even number >= 2 (bands come in aligned pairs), got {rows}")
     if cols < 1:
@@ -103,6 +146,10 @@ def layout_panels(surface: GridSurface, rows: int = 14, cols: int = 3, columns_p
     # surface gives a mirror-symmetric layout
     arcs = np.array([(b * (nv - 1)) // rows if 2 * b <= rows else nv - 1 - ((rows - b) * (nv - 1)) // rows
                      for b in range(rows + 1)], dtype=np.int64)
+    if len(creases):
+        arcs = _arcs_between(creases, nv)
+        if np.any(creases <= arcs[:-1]) or np.any(creases >= arcs[1:]):
+            raise InputError("creases are too close together to put a band boundary between them")
     if np.any(np.diff(arcs) < 1):
         raise InputError("bands would be empty: use fewer rows or subdivide more")
     n_st = cols * K + 1
@@ -122,8 +169,22 @@ def layout_panels(surface: GridSurface, rows: int = 14, cols: int = 3, columns_p
             V = pts[grid_rows][:, st].reshape(-1, 3)
             quads = _grid_quads(len(grid_rows) - 1, len(st) - 1)
             n_faces = len(quads)
-            fd = {"column": np.tile(np.arange(len(st) - 1), len(grid_rows) - 1),
-                  "row": np.repeat(np.arange(len(grid_rows) - 1), len(st) - 1)}
+            column = np.tile(np.arange(len(st) - 1), len(grid_rows) - 1)
+            row = np.repeat(np.arange(len(grid_rows) - 1), len(st) - 1)
+            fd = {"column": column, "row": row}
+            inside = creases[(creases > grid_rows[0]) & (creases < grid_rows[-1])]
+            if len(inside):
+                # strip k: the faces past k creases; the middle column crosses every crease of the band
+                fd["strip"] = np.searchsorted(inside, grid_rows[row], side="right").astype(np.int64)
+                # one middle face per strip (the refold/toolpath contract): the middle column's face
+                # in the strip's middle row; the crease hinges of that column are the driven ones
+                strip = fd["strip"]
+                mid_col = column == (len(st) - 1) // 2
+                middle = np.zeros(len(column), np.int64)
+                for s_id in range(len(inside) + 1):
+                    rows_k = np.unique(row[strip == s_id])
+                    middle[mid_col & (row == rows_k[len(rows_k) // 2])] = 1
+                fd["middle"] = middle
             mesh = PolyMesh(V, quads, face_data=fd)
             if np.dot(mesh.face_normal_sums.sum(axis=0), surface.mesh.face_normal_sums.sum(axis=0)) < 0:
                 mesh = PolyMesh(V, quads[:, ::-1], face_data=fd)
@@ -139,7 +200,7 @@ def layout_panels(surface: GridSurface, rows: int = 14, cols: int = 3, columns_p
         fixed = np.array([int(k) in sing_set for k in p.keys.ravel()])
         final.append(Panel(**{**p.__dict__, "fixed": fixed}))
     layout = PanelLayout(surface=surface, arcs=arcs, n_stations=n_st, points=pts, panels=tuple(final),
-                         singular_keys=singular, pair_offsets=offsets)
+                         singular_keys=singular, pair_offsets=offsets, creases=creases)
     return PanelLayout(**{**layout.__dict__, "shared_edges": tuple(find_shared_edges(layout.panels))})
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fabkit.commands._common import to_jsonable, write_json
+from fabkit.io.jsonfile import to_jsonable, write_json
 from fabkit.panels.workflow import PanelsRun
 
 __all__ = ["write_run", "run_report", "band_layout"]

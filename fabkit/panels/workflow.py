@@ -162,9 +162,31 @@ def _mirror_arrays(src: Panel, dst: Panel, relaxed: np.ndarray, uv: np.ndarray) 
     return relaxed[perm] @ MIRROR, uv[perm] * np.array([-1.0, 1.0])
 
 
+def _map_cached(ex, tasks: list[dict], cache, progress) -> list[dict]:
+    """`panel_task` over `tasks`, taking results `cache` (a `ResultCache`) already holds."""
+    if cache is None:
+        return map_ordered(ex, panel_task, tasks, progress=progress)
+    keys = [cache.key(t) for t in tasks]
+    out: list = [cache.get(k) for k in keys]
+    todo = [i for i, r in enumerate(out) if r is None]
+    for i in range(len(tasks)):
+        if out[i] is not None:
+            cache.reused.append(tasks[i]["id"])
+            if progress:
+                progress()
+    for i, r in zip(todo, map_ordered(ex, panel_task, [tasks[i] for i in todo], progress=progress)):
+        cache.put(keys[i], r)
+        cache.computed.append(tasks[i]["id"])
+        out[i] = r
+    return out
+
+
 def run_panels(layout: PanelLayout, options: PanelsOptions = PanelsOptions(), *, jobs: int = 1,
-               scheduler: str | None = None, progress=None) -> PanelsRun:
-    """Relax, unfold and make congruent every panel of `layout` (see the module docstring)."""
+               scheduler: str | None = None, progress=None, cache=None) -> PanelsRun:
+    """Relax, unfold and make congruent every panel of `layout` (see the module docstring).
+
+    `cache`: a `fabkit.panels.cache.ResultCache`; tasks whose inputs it already holds are not run.
+    """
     panels = layout.panels
     n = len(panels)
     if options.symmetric:
@@ -202,7 +224,7 @@ def run_panels(layout: PanelLayout, options: PanelsOptions = PanelsOptions(), *,
 
     with panel_executor(jobs, scheduler) as ex:
         t0 = time.perf_counter()
-        for r in map_ordered(ex, panel_task, [base_tasks[i] for i in solve], progress=progress):
+        for r in _map_cached(ex, [base_tasks[i] for i in solve], cache, progress):
             results[r["id"]] = r
         fill_mirrors(results)
         timings["relax_unfold"] = time.perf_counter() - t0
@@ -224,7 +246,7 @@ def run_panels(layout: PanelLayout, options: PanelsOptions = PanelsOptions(), *,
                 targets[pb][eb] += m - lb
             tasks = [{**base_tasks[i], "vertices": results[i]["relaxed"], "relax": False, "targets": targets[i]}
                      for i in solve]
-            for r in map_ordered(ex, panel_task, tasks, progress=progress):
+            for r in _map_cached(ex, tasks, cache, progress):
                 keep = {k: results[r["id"]][k] for k in ("converged", "message", "max_defect", "max_planarity",
                                                            "max_displacement")}
                 results[r["id"]] = {**r, **keep}

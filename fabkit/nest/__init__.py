@@ -1,0 +1,21 @@
+"""Nesting flat patterns on stock sheets, and the cut files of each sheet.
+
+`nest_parts(parts, options)` places polygons (mm) on rectangular sheets with a gap between parts
+and to the sheet edge (`spacing + kerf`), rotation free or (`grain`) held so each part's grain axis
+runs along the sheet's x or y. Two engines:
+
+- `packingsolver`: irregular nesting by sparrow (Gardeyn & Wauters, through the `spyrrow`
+  package): strip packing with collision detection on the true outlines. Sheets are filled by
+  packing the remaining parts into a strip of the sheet's height and keeping the parts that lie
+  wholly inside the whole sheet lengths; parts across a sheet end go into the next strip.
+- `shelf`: the baseline — each part turned to its minimum-area bounding rectangle and placed by
+  first-fit decreasing height on shelves.
+
+Every result is verified with shapely (`Nesting.verify`): each part exactly once, no two parts
+closer than the gap, every part inside its sheet's margin.
+"""
+from fabkit.nest.engines import NestOptions, Nesting, Placement, nest_parts
+from fabkit.nest.panels import nest_panels, panel_parts
+from fabkit.nest.sheets import write_sheets  # noqa: E402
+
+__all__ = ["NestOptions", "Nesting", "Placement", "nest_parts", "nest_panels", "panel_parts", "write_sheets"]

@@ -1,0 +1,388 @@
+"""A production run: every panel relaxed, unfolded, refolded, programmed and checked, resumably.
+
+Stages per panel: relax → unfold (with the congruency feedback of `fabkit.panels.workflow`) →
+refold (§3.6: fold states from the flat pattern to the relaxed panel, the middle-row creases
+driven) → program (the robot toolpath) → check (the toolpath in the MuJoCo cell). Programming and
+checking live in `robot/` and `sim/`, which `fabkit` does not import: the caller passes the one
+function that does both (`sim.production.program_panel`), so this module stays geometry.
+
+Each panel ends `ok` or with the stage that stopped it and the reason. Work is resumable by
+content: relax/unfold results are cached by the hash of their inputs (`fabkit.panels.cache`), and
+the manifest (`manifest.json`) records per panel the hash of everything the later stages read
+(geometry, cell text, material, options) with the SHA-256 of every file written; a panel whose hash
+and files are unchanged is not recomputed. The manifest is rewritten after every finished panel, so
+a run that is killed keeps every finished panel.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from concurrent.futures import as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from fabkit.errors import InputError
+from fabkit.io.jsonfile import to_jsonable
+
+__all__ = ["Material", "MATERIALS", "material", "ProductionOptions", "PanelStatus", "ProductionRun",
+           "refold_and_program", "run_production", "crease_loss", "geometry_status", "MANIFEST", "STAGES"]
+
+MANIFEST = "manifest.json"
+STAGES = ("relax", "unfold", "refold", "program", "check")
+#: Code salt of the later stages' hash: bump it when their outputs change meaning.
+PROGRAM_SALT = "fabkit.production.program/1"
+
+
+@dataclass(frozen=True)
+class Material:
+    """Sheet stock: name, thickness [m], density [kg/m^3]."""
+
+    name: str
+    thickness: float
+    density: float
+
+
+#: Stock the run knows by name (densities: AA / MatWeb; thicknesses: the robot-foldable range for
+#: UR-class arms is about 1-1.5 mm of aluminium, docs/production.md).
+MATERIALS = {m.name: m for m in (
+    Material("aluminium-1.0", 1.0e-3, 2680.0),
+    Material("aluminium-1.5", 1.5e-3, 2680.0),
+    Material("aluminium-2.0", 2.0e-3, 2680.0),
+    Material("steel-0.8", 0.8e-3, 7850.0),
+)}
+
+
+def material(name: str) -> Material:
+    if name not in MATERIALS:
+        raise InputError(f"unknown material {name!r} (known: {', '.join(MATERIALS)})", source="--material")
+    return MATERIALS[name]
+
+
+@dataclass(frozen=True)
+class ProductionOptions:
+    frames: int = 8                      # refold states from flat to folded (flat and target included)
+    target_tol: float = 1e-5             # last refold state to the relaxed panel, relative to its size
+                                         # (2 um on a 0.2 m panel; only the middle row is driven, §3.6)
+    length_tol: float = 1e-6             # flat vs relaxed edge lengths a refold accepts (relative)
+    overrides: dict = field(default_factory=dict)   # panel name -> {"frames": n}
+
+
+@dataclass(frozen=True)
+class PanelStatus:
+    id: int
+    name: str
+    ok: bool
+    stage: str | None        # the stage that stopped the panel (None: ok)
+    reason: str
+    cycle_time_s: float | None
+    unfold_max: float
+    grip_face: int | None
+    files: dict              # kind -> path relative to the run folder
+    recomputed: bool
+
+
+@dataclass(frozen=True)
+class ProductionRun:
+    panels: tuple[PanelStatus, ...]
+    geometry: object          # the PanelsRun
+    seconds: dict
+    recomputed: dict          # stage -> panel ids computed in this run (the rest were reused)
+
+    @property
+    def ok(self) -> bool:
+        return all(p.ok for p in self.panels)
+
+    @property
+    def robot_time_s(self) -> float:
+        return float(sum(p.cycle_time_s or 0.0 for p in self.panels))
+
+
+def _sha(text: str | bytes) -> str:
+    return hashlib.sha256(text.encode() if isinstance(text, str) else text).hexdigest()
+
+
+def _mostly_valley(mesh) -> bool:
+    """True when the panel's creases fold mostly as valleys (seen from its front, FOLD sign +).
+
+    Such a panel is laid back face up, so every panel is folded as mountains seen from above (on
+    the pleated vault in cells/ur5e_bench.toml: 6 of 8 panels plan and check that way, 4 of 8 with
+    the valleys up)."""
+    from fabkit.cutfiles.creases import crease_assignment
+
+    ca = crease_assignment(mesh)
+    c = np.isin(ca.edges_assignment, ("M", "V"))
+    return bool(c.any() and ca.edges_fold_angle[c].sum() > 0)
+
+
+def _clamped_face(fd: dict) -> int | None:
+    """The face the fixture clamps: the middle face of strip 0 (the strip the robot does not move)."""
+    if "middle" not in fd or "strip" not in fd:
+        return None
+    mids = np.flatnonzero((np.asarray(fd["middle"]) != 0) & (np.asarray(fd["strip"]) == 0))
+    return int(mids[0]) if len(mids) else None
+
+
+def _panel_frame(uv: np.ndarray, faces: np.ndarray, fd: dict, clamped: int, side=(0.0, 1.0)) -> np.ndarray:
+    """The flat pattern in the panel frame: the clamped face's centroid at the fixture's origin and
+    the strip the robot folds on the `side` direction from it (a rotation; the pattern is not mirrored)."""
+    c0 = uv[np.unique(faces[clamped])].mean(axis=0)
+    mids = np.flatnonzero((np.asarray(fd["middle"]) != 0) & (np.asarray(fd["strip"]) == 1))
+    if not len(mids):
+        return uv - c0
+    d = uv[np.unique(faces[mids[0]])].mean(axis=0) - c0
+    a = np.arctan2(side[1], side[0]) - np.arctan2(d[1], d[0])
+    R = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    return (uv - c0) @ R.T
+
+
+def refold_and_program(task: dict) -> dict:
+    """Refold one panel, then program and check it with `task["program"]`. Pure: data in, data out."""
+    from fabkit.fold import validate_fold_model
+    from fabkit.io.fold import fold_text
+    from fabkit.mesh import PolyMesh
+    from fabkit.refold import NotAFoldError, RefoldSolver
+    from fabkit.refold.export import to_fold_model
+    from fabkit.refold.sequence import build_schedule
+
+    t0 = time.perf_counter()
+    name = task["name"]
+    out = {"id": task["id"], "name": name, "stage": None, "reason": "", "fold": None, "toolpath": None,
+           "check": None, "cycle_time_s": None, "grip_face": None, "refold": None, "face_up_on_fixture": None}
+    faces = np.asarray(task["faces"])
+    fd = {k: np.asarray(v) for k, v in task["face_data"].items()}
+    uv = np.asarray(task["uv"], dtype=np.float64)
+    clamped = _clamped_face(fd)
+    if clamped is not None:
+        uv = _panel_frame(uv, faces, fd, clamped, task.get("side", (0.0, 1.0)))
+    target = PolyMesh(np.asarray(task["relaxed"]), faces, face_data=fd)
+    back_up = _mostly_valley(target)
+    if back_up:  # lay the sheet back face up on the fixture: its valleys become mountains seen from above
+        faces = faces[:, ::-1]
+        uv = uv * np.array([1.0, -1.0])
+        target = PolyMesh(np.asarray(task["relaxed"]), faces, face_data=fd)
+    flat = PolyMesh(np.column_stack([uv, np.zeros(len(uv))]), faces, face_data=fd)
+    out["face_up_on_fixture"] = "back" if back_up else "front"
+    try:
+        solver = RefoldSolver(flat, target, fixed_face=clamped, length_rtol=task["length_tol"],
+                              flat_name=f"{name} flat", target_name=f"{name} relaxed")
+        driven, notes = solver.driven_hinges("middle-row")
+    except (NotAFoldError, InputError) as exc:
+        return {**out, "stage": "refold", "reason": str(exc), "seconds": time.perf_counter() - t0}
+    fractions, step_of_state = build_schedule(solver.panel, flat, driven, None, int(task["frames"]))
+    seq = solver.solve(fractions, driven, step_of_state, check_intersections=True, notes=notes)
+    summary = seq.summary()
+    out["refold"] = summary
+    rel = seq.target_distance / seq.panel_size if seq.panel_size > 0 else float("nan")
+    problem = None
+    if not seq.converged.all():
+        problem = next((n for n in seq.notes if "did not converge" in n), "a fold state did not converge")
+    elif not rel <= task["target_tol"]:
+        problem = f"the last fold state is {rel:.3g} of the panel size from the relaxed panel (tol {task['target_tol']:g})"
+    elif summary["states_with_intersections"]:
+        problem = f"faces pass through each other in {summary['states_with_intersections']} fold states"
+    if problem:
+        return {**out, "stage": "refold", "reason": problem, "seconds": time.perf_counter() - t0}
+    model = to_fold_model(seq, title=f"fabkit refold of panel {name}", file_data={"fabkit:panel": name})
+    validate_fold_model(model, source=name)
+    text = fold_text(model)
+    out["fold"] = text
+    prog = task["program"](text, f"{name}_refold.fold", task["cell_toml"], task["cell_name"], task["thickness"])
+    out.update(stage=prog["stage"], reason=prog["reason"], toolpath=prog["toolpath"], check=prog["check"],
+               cycle_time_s=prog["cycle_time_s"], grip_face=prog["grip_face"], seconds=time.perf_counter() - t0)
+    return out
+
+
+def _program_task(panel, result, options: ProductionOptions, cell_toml: str, cell_name: str, mat: Material,
+                  program: Callable) -> dict:
+    frames = int(options.overrides.get(panel.name, {}).get("frames", options.frames))
+    fd = {k: np.asarray(v) for k, v in panel.mesh.face_data.items() if k in ("strip", "column", "middle", "row")}
+    return {"id": panel.id, "name": panel.name, "faces": panel.mesh.topology.face_array, "face_data": fd,
+            "uv": np.asarray(result.uv), "relaxed": np.asarray(result.relaxed), "frames": frames,
+            "target_tol": options.target_tol, "length_tol": options.length_tol, "cell_toml": cell_toml,
+            "cell_name": cell_name, "thickness": mat.thickness, "program": program}
+
+
+def load_manifest(out: Path) -> dict:
+    path = out / MANIFEST
+    if not path.is_file():
+        return {"format": "fabkit.production/1", "panels": {}}
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError):
+        return {"format": "fabkit.production/1", "panels": {}}
+    return data if isinstance(data.get("panels"), dict) else {"format": "fabkit.production/1", "panels": {}}
+
+
+def _write_manifest(out: Path, manifest: dict) -> None:
+    tmp = out / f".{MANIFEST}.{os.getpid()}.tmp"
+    tmp.write_text(json.dumps(to_jsonable(manifest), indent=1, allow_nan=False) + "\n")
+    os.replace(tmp, out / MANIFEST)
+
+
+def _write_text(path: Path, text: str) -> str:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+    return _sha(text)
+
+
+def _files_intact(out: Path, entry: dict) -> bool:
+    for rec in entry.get("files", {}).values():
+        p = out / rec["path"]
+        if not p.is_file() or _sha(p.read_bytes()) != rec["sha256"]:
+            return False
+    return True
+
+
+def _store(out: Path, r: dict) -> dict:
+    """Write one panel's refold/program/check files; returns kind -> {"path", "sha256"}."""
+    files = {}
+    pdir = out / "panels"
+    for kind, suffix, value in (("refold", "_refold.fold", r.get("fold")),
+                                ("program", "_path.json", r.get("toolpath")),
+                                ("check", "_check.json", r.get("check"))):
+        if value is None:
+            continue
+        text = value if isinstance(value, str) else json.dumps(to_jsonable(value), indent=1, allow_nan=False) + "\n"
+        rel = f"panels/{r['name']}{suffix}"
+        files[kind] = {"path": rel, "sha256": _write_text(pdir / f"{r['name']}{suffix}", text)}
+    return files
+
+
+#: A crease counts as kept when the relaxed panel's mean fold along it is at least this fraction of
+#: the input surface's.
+CREASE_KEPT = 0.5
+
+
+def crease_loss(panel, relaxed: np.ndarray) -> str | None:
+    """A reason when the relaxation flattened the panel's crease (nothing left for the robot to fold)."""
+    from fabkit.cutfiles.creases import crease_assignment
+
+    if "strip" not in panel.mesh.face_data:
+        return None
+    before = crease_assignment(panel.mesh)
+    after = crease_assignment(panel.mesh.with_vertices(relaxed))
+    c = np.isin(before.edges_assignment, ("M", "V", "U"))
+    f0 = float(np.abs(before.edges_fold_angle[c]).mean())
+    f1 = float(np.abs(after.edges_fold_angle[c]).mean())
+    if f1 < CREASE_KEPT * f0:
+        return (f"the relaxation flattened the crease: mean fold {np.degrees(f0):.1f} deg on the surface, "
+                f"{np.degrees(f1):.1f} deg after")
+    return None
+
+
+def geometry_status(geometry, panel) -> tuple[str, str] | None:
+    """(stage, reason) when the relax or unfold of `panel` misses its tolerance, else None."""
+    r = geometry.results[panel.id]
+    o = geometry.options
+    if not r.converged:
+        return "relax", r.message
+    flattened = crease_loss(panel, r.relaxed)
+    if flattened:
+        return "relax", flattened
+    why = []
+    if r.unfold_max > o.tol_unfold:
+        why.append(f"max deviation {r.unfold_max:.3g} > {o.tol_unfold:g}")
+    if r.flipped:
+        why.append(f"{r.flipped} flipped faces")
+    if r.overlaps:
+        why.append("the outline overlaps itself")
+    cong = geometry.congruency.per_panel_max(len(geometry.results))[panel.id]
+    if cong > o.tol_congruency:
+        why.append(f"shared-edge incongruency {cong:.3g} > {o.tol_congruency:g}")
+    return ("unfold", "; ".join(why)) if why else None
+
+
+def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name: str, program: Callable,
+                   panels_options=None, options: ProductionOptions = ProductionOptions(),
+                   mat: Material = MATERIALS["aluminium-1.0"], jobs: int = 1, scheduler: str | None = None,
+                   progress: Callable | None = None, timeout: float | None = None,
+                   select=None) -> ProductionRun:
+    """Run every stage for every panel of `layout` into folder `out` (see the module docstring).
+
+    `program(fold_text, fold_name, cell_toml, cell_name, thickness) -> dict` plans and checks one
+    panel (`sim.production.program_panel`). `progress(stage, done, total)` is called as panels
+    finish a stage. Per-panel files go to `out/panels/`; the geometry files (OBJ, crease-pattern
+    FOLD, DXF/SVG) are written by the caller (`fabkit.panels.output.write_run`). `select`: panel
+    names to take past the unfold (None: all); the others end at stage "refold", "not selected".
+    """
+    from fabkit.panels.cache import ResultCache
+    from fabkit.panels.executor import panel_executor, single_threaded
+    from fabkit.panels.workflow import PanelsOptions, run_panels
+
+    out = Path(out)
+    (out / "panels").mkdir(parents=True, exist_ok=True)
+    cache = ResultCache(out / "cache" / "relax_unfold", "fabkit.panels.panel_task/1")
+    n = len(layout.panels)
+    seconds = {}
+    t0 = time.perf_counter()
+    done = [0]
+
+    def geo_progress(k=1, **_):
+        done[0] += k
+        if progress:
+            progress("relax+unfold", done[0], None)
+
+    geometry = run_panels(layout, panels_options or PanelsOptions(), jobs=jobs, scheduler=scheduler,
+                          progress=geo_progress, cache=cache)
+    seconds["relax_unfold"] = time.perf_counter() - t0
+
+    manifest = load_manifest(out)
+    entries = manifest["panels"]
+    t0 = time.perf_counter()
+    tasks, keys, statuses, recomputed = {}, {}, {}, set()
+    for p in layout.panels:
+        bad = geometry_status(geometry, p)
+        if bad:
+            statuses[p.id] = (bad[0], bad[1], {}, None, None)
+            entries[p.name] = {"hash": None, "stage": bad[0], "reason": bad[1], "files": {}}
+            continue
+        if select is not None and p.name not in select:
+            statuses[p.id] = ("refold", "not selected for refold, program and check in this run", {}, None, None)
+            continue
+        task = _program_task(p, geometry.results[p.id], options, cell_toml, cell_name, mat, program)
+        key = hashlib.sha256((PROGRAM_SALT + cache.key(task)).encode()).hexdigest()
+        prev = entries.get(p.name)
+        if prev and prev.get("hash") == key and _files_intact(out, prev):
+            statuses[p.id] = (prev["stage"], prev["reason"], prev["files"], prev.get("cycle_time_s"),
+                              prev.get("grip_face"))
+        else:
+            tasks[p.id], keys[p.id] = task, key
+    finished = len(statuses)
+    if progress:
+        progress("refold+program+check", finished, n)
+    if tasks:
+        with panel_executor(jobs, scheduler) as ex:
+            futures = {ex.submit(single_threaded, refold_and_program, t): pid for pid, t in tasks.items()}
+            for f in as_completed(futures, timeout=timeout):
+                r = f.result()
+                pid = futures[f]
+                files = _store(out, r)
+                entries[r["name"]] = {"hash": keys[pid], "stage": r["stage"], "reason": r["reason"], "files": files,
+                                      "cycle_time_s": r["cycle_time_s"], "grip_face": r["grip_face"],
+                                      "refold": r["refold"], "seconds": r.get("seconds"),
+                                      "face_up_on_fixture": r.get("face_up_on_fixture")}
+                _write_manifest(out, manifest)
+                statuses[pid] = (r["stage"], r["reason"], files, r["cycle_time_s"], r["grip_face"])
+                recomputed.add(pid)
+                finished += 1
+                if progress:
+                    progress("refold+program+check", finished, n)
+    _write_manifest(out, manifest)
+    seconds["refold_program_check"] = time.perf_counter() - t0
+    panels = []
+    for p in layout.panels:
+        stage, reason, files, ct, grip = statuses[p.id]
+        panels.append(PanelStatus(id=p.id, name=p.name, ok=stage is None, stage=stage, reason=reason,
+                                  cycle_time_s=ct, unfold_max=float(geometry.results[p.id].unfold_max),
+                                  grip_face=grip, files={k: v["path"] for k, v in files.items()},
+                                  recomputed=p.id in recomputed))
+    return ProductionRun(panels=tuple(panels), geometry=geometry, seconds=seconds,
+                         recomputed={"relax_unfold": sorted(int(i) for i in cache.computed),
+                                     "refold_program_check": sorted(recomputed)})
+

@@ -1,0 +1,61 @@
+"""One panel's robot program for a production run: plan the fold toolpath, then check it in MuJoCo.
+
+`program_panel` is the one place a production run (`fabkit.panels.production`) reaches the robot
+and the simulator: it takes the panel's FOLD text (the refolded states) and the cell description
+as text (so a worker on another machine needs no shared files) and returns plain data — the
+PATH.json and CHECK.json documents and a verdict. The toolpath is checked exactly as planned (the
+check reads the toolpath's own waypoints and the same fold states).
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import tempfile
+import tomllib
+from pathlib import Path
+
+__all__ = ["program_panel"]
+
+
+@functools.lru_cache(maxsize=4)
+def _cell(cell_toml: str, cell_name: str):
+    from robot.cell import parse_cell
+
+    return parse_cell(tomllib.loads(cell_toml), cell_name)
+
+
+def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str, thickness: float) -> dict:
+    """Plan and check one panel. Returns {"stage": "program"|"check"|None, "reason", "toolpath"
+    (PATH.json dict or None), "check" (CHECK.json dict or None), "cycle_time_s", "grip_face"}; stage
+    None means both passed."""
+    from fabkit.frames import middle_row_frames
+    from fabkit.io.fold import load_fold
+    from robot.toolpath import PlanningError, plan_panel
+    from sim.check import check_program, program_from_toolpath
+    from sim.panel import panel_from_fold
+
+    cell = _cell(cell_toml, cell_name)
+    with tempfile.TemporaryDirectory(prefix="fabkit-program-") as tmp:  # read back exactly as a file
+        path = Path(tmp) / Path(fold_name).name
+        path.write_text(fold_text)
+        model = load_fold(path)
+    frames = middle_row_frames(model, source=fold_name)
+    source = {"file": fold_name, "sha256": hashlib.sha256(fold_text.encode()).hexdigest(),
+              "states": int(frames.n_states)}
+    out = {"stage": None, "reason": "", "toolpath": None, "check": None, "cycle_time_s": None, "grip_face": None}
+    try:
+        res = plan_panel(cell, frames, source=source)
+    except PlanningError as exc:
+        return {**out, "stage": "program", "reason": str(exc)}
+    tp = res.toolpath
+    out.update(toolpath=tp.to_json(), grip_face=int(res.grip_face), cycle_time_s=float(res.cycle_time))
+    prog = program_from_toolpath(tp, cell)
+    panel = panel_from_fold(model, cell.fixture, grip_face_id=res.grip_face, thickness=thickness, source=fold_name)
+    report, _ = check_program(prog, cell, panel)
+    out["check"] = report.to_json()
+    out["cycle_time_s"] = float(report.cycle_time_s)
+    if not report.ok:
+        first = report.problems[0]
+        out.update(stage="check", reason=f"{len(report.problems)} problem(s), first: waypoint {first.waypoint} "
+                                         f"{first.kind}: {first.detail}")
+    return out

@@ -1,0 +1,157 @@
+"""Nesting on stock sheets (sparrow and the shelf baseline) and the per-sheet cut files."""
+from __future__ import annotations
+
+import math
+
+import ezdxf
+import numpy as np
+import pytest
+from shapely.geometry import LineString, Point, Polygon, box
+
+from fabkit.errors import InputError
+from fabkit.nest import NestOptions, nest_parts
+from fabkit.nest.engines import place
+
+
+def _parts(n=24, seed=0):
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        w, h, sk = rng.uniform(150, 420), rng.uniform(100, 300), rng.uniform(-60, 60)
+        bow = rng.uniform(0, 30)
+        top = [(w + sk - t * w, h + bow * math.sin(math.pi * t)) for t in np.linspace(0, 1, 7)]
+        out.append(Polygon([(0, 0), (w, 0), *top]))
+    return out
+
+
+def _independent_check(parts, nesting, sheet, gap, margin):
+    """Every part exactly once, inside its sheet's margin, no two closer than the gap (shapely only)."""
+    assert sorted(p.part for p in nesting.placements) == list(range(len(parts)))
+    inner = box(margin - 1e-6, margin - 1e-6, sheet[0] - margin + 1e-6, sheet[1] - margin + 1e-6)
+    placed = {}
+    for p in nesting.placements:
+        g = place(parts[p.part], p)
+        assert inner.contains(g), p
+        assert g.area == pytest.approx(parts[p.part].area, rel=1e-9)  # moved rigidly, not mirrored or scaled
+        placed.setdefault(p.sheet, []).append(g)
+    assert sorted(placed) == list(range(nesting.n_sheets))
+    for geoms in placed.values():
+        for i, a in enumerate(geoms):
+            for b in geoms[i + 1:]:
+                assert a.distance(b) >= gap - 1e-6
+
+
+@pytest.mark.parametrize("engine", ["shelf", "packingsolver"])
+def test_nesting_places_every_part_once_without_overlap(engine):
+    parts = _parts()
+    opts = NestOptions(sheet=(1500.0, 800.0), spacing=8.0, kerf=0.5, engine=engine, time_limit=3)
+    n = nest_parts(parts, opts)
+    assert n.verify(parts) == []
+    _independent_check(parts, n, opts.sheet, opts.gap, opts.spacing)
+    assert 0 < n.utilisation <= n.used_length_utilisation(parts) <= 1
+
+
+def test_grain_keeps_parts_along_the_sheet():
+    parts = _parts(10, seed=1)
+    for grain, allowed in (("x", {0.0, 180.0}), ("y", {90.0, 270.0})):
+        n = nest_parts(parts, NestOptions(sheet=(1500.0, 800.0), grain=grain, engine="packingsolver", time_limit=2))
+        assert {round(p.angle % 360, 6) for p in n.placements} <= allowed
+        assert n.verify(parts) == []
+        s = nest_parts(parts, NestOptions(sheet=(1500.0, 800.0), grain=grain, engine="shelf"))
+        assert {round(p.angle % 360, 6) for p in s.placements} <= allowed and s.verify(parts) == []
+
+
+def test_verify_catches_overlap_and_refusals():
+    parts = [box(0, 0, 100, 100), box(0, 0, 100, 100)]
+    n = nest_parts(parts, NestOptions(engine="shelf"))
+    from dataclasses import replace
+
+    bad = replace(n, placements=(n.placements[0], replace(n.placements[1], x=n.placements[0].x + 50,
+                                                          y=n.placements[0].y)))
+    assert any("apart" in p for p in bad.verify(parts))
+    with pytest.raises(InputError, match="does not fit"):
+        nest_parts([box(0, 0, 3000, 100)], NestOptions())
+    with pytest.raises(InputError, match="not a valid polygon"):
+        nest_parts([Polygon([(0, 0), (1, 1), (1, 0), (0, 1)])], NestOptions())
+
+
+@pytest.fixture(scope="module")
+def sheets(tmp_path_factory):
+    from fabkit.generate.pleated import pleated_vault
+    from fabkit.nest import nest_panels, write_sheets
+    from fabkit.panels.layout import layout_panels
+    from fabkit.panels.production import MATERIALS
+    from fabkit.panels.surface import GridSurface, grid_from_topology
+    from fabkit.panels.workflow import PanelsOptions, run_panels
+
+    mesh = pleated_vault(rows=4, length=1.0, radius=0.6, arc=math.radians(60), columns=16, rows_per_band=8)
+    index, _ = grid_from_topology(mesh)
+    layout = layout_panels(GridSurface(points=mesh.vertices[index], mesh=mesh, index=index), cols=2,
+                           columns_per_panel=8)
+    run = run_panels(layout, PanelsOptions())
+    nest = nest_panels(run, NestOptions(sheet=(1250.0, 1000.0), engine="packingsolver", time_limit=3))
+    out = tmp_path_factory.mktemp("sheets")
+    mat = MATERIALS["aluminium-1.5"]
+    info = write_sheets(run, nest, out / "sheets", mat)
+    return run, nest, out, info, mat
+
+
+def test_sheet_dxf_has_layers_labels_reliefs_and_spline_creases(sheets):
+    from fabkit.nest.sheets import spline_allowance
+
+    run, nest, out, info, mat = sheets
+    layout = run.layout
+    names = {p.name for p in layout.panels}
+    on_sheets = []
+    for s in info:
+        doc = ezdxf.readfile(out / s["dxf"])
+        assert doc.header["$INSUNITS"] == 4
+        msp = doc.modelspace()
+        texts = [e.dxf.text for e in msp.query("TEXT[layer=='LABEL']")]
+        on_sheets += s["panels"]
+        for name in s["panels"]:
+            assert name in texts
+        # neighbours' ids on the shared sides: every neighbour of a panel on this sheet is named on it
+        for pa, _, pb, _ in layout.shared_edges:
+            for me, other in ((pa, pb), (pb, pa)):
+                if layout.panels[me].name in s["panels"]:
+                    assert layout.panels[other].name in texts
+        splines = msp.query("SPLINE")
+        assert {e.dxf.layer for e in splines} <= {"MOUNTAIN", "VALLEY"} and len(splines) == len(s["panels"])
+        grooves = msp.query("LWPOLYLINE[layer=='GROOVE_TOP' | layer=='GROOVE_BOTTOM']")
+        assert len(grooves) == len(splines)
+        for sp, gr in zip(splines, grooves):  # read back: the spline stays within tolerance of the crease
+            curve = np.array([tuple(p)[:2] for p in sp.construction_tool().approximate(400)])
+            poly = np.array([tuple(p)[:2] for p in gr.get_points()])
+            assert LineString(curve).hausdorff_distance(LineString(poly)) <= spline_allowance(poly)
+            curve_line = LineString(np.array([tuple(p)[:2] for p in sp.construction_tool().approximate(4000)]))
+            assert max(curve_line.distance(Point(*v)) for v in poly) < 0.01  # through every crease vertex
+        circles = msp.query("CIRCLE[layer=='RELIEF']")
+        assert len(circles) == 2 * len(s["panels"])  # each crease meets the outline at both ends
+        cut = [Polygon([tuple(p[:2]) for p in e.get_points()]) for e in msp.query("LWPOLYLINE[layer=='CUT']")]
+        for c in circles:
+            assert 2 * c.dxf.radius >= 0.5 * mat.thickness * 1000  # width >= t/2
+            centre = Point(c.dxf.center[0], c.dxf.center[1])
+            assert min(o.exterior.distance(centre) for o in cut) < 1e-6  # on the outline: a notch
+        assert {"GROOVE_TOP", "GROOVE_BOTTOM"} & {e.dxf.layer for e in grooves}
+        assert "depth" in doc.layers.get("GROOVE_TOP").description
+    assert sorted(on_sheets) == sorted(names)
+    # mountains and valleys both appear over the run (the vault alternates)
+    layers = set()
+    for s in info:
+        layers |= {e.dxf.layer for e in ezdxf.readfile(out / s["dxf"]).modelspace().query("SPLINE")}
+    assert layers == {"MOUNTAIN", "VALLEY"}
+
+
+def test_sheet_svg_matches_dxf(sheets):
+    import xml.etree.ElementTree as ET
+
+    run, nest, out, info, mat = sheets
+    ns = {"s": "http://www.w3.org/2000/svg"}
+    for s in info:
+        root = ET.parse(out / s["svg"]).getroot()
+        assert root.get("width") == "1250mm"
+        cut = root.find("s:g[@id='CUT']", ns)
+        assert len(cut.findall("s:polygon", ns)) == len(s["panels"])
+        labels = [t.text for t in root.find("s:g[@id='LABEL']", ns).findall("s:text", ns)]
+        assert set(s["panels"]) <= set(labels)
