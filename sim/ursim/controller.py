@@ -102,6 +102,8 @@ class Controller:
         self.tool_output_mode = 0  # RTDE tool_output_mode / tool mode info: standard digital outputs
         self.tool_digital_output_modes = [1, 1]  # 1 = sinking (NPN), the controller's default
         self.interface_streams: list = []  # client_interfaces.Stream of the 30001-30003 clients
+        self._next_state_tick = 0
+        self.motion_time = 0.0  # controller seconds with the arm under motion control (admin state)
         self.execution_time_ms = 0.0  # RTDE actual_execution_time: the last tick's computing time
         self.inputs = {name: (0.0 if t == "DOUBLE" else (np.zeros(6) if t == "VECTOR6D" else 0))
                        for name, t in INPUTS.items()}
@@ -477,6 +479,8 @@ class Controller:
                 try:
                     for j in range(steps):  # catching up: every missed period is simulated and checked
                         self.timestamp = (k - steps + 1 + j) * period
+                        if self.arm.mode != "idle":
+                            self.motion_time += period
                         self.arm.step(period, self.speed_fraction if not self.paused else 0.0, self.timestamp)
                         self._safety_checks()
                     self._update_pose()
@@ -512,9 +516,11 @@ class Controller:
             return
         from sim.ursim import client_interfaces as ci
 
-        every = max(1, int(round(ci.STATE_PERIOD_S / self.period)))
         rt = [st for st in streams if st.kind == "realtime"]
-        state = [st for st in streams if st.kind != "realtime"] if k % every == 0 else []
+        state = []
+        if k >= self._next_state_tick:  # due-tick, not k % n: a tick skipped under load must not skip a state
+            self._next_state_tick = k + max(1, int(round(ci.STATE_PERIOD_S / self.period)))
+            state = [st for st in streams if st.kind != "realtime"]
         if not rt and not state:
             return
         snap = ci.snapshot(self)
@@ -572,7 +578,7 @@ class Controller:
                 "speed_fraction": self.speed_fraction, "last_error": self.last_error,
                 "payload": self.payload, "payload_cog": self.payload_cog.tolist(),
                 "operational_mode": self.operational_mode, "clients": self.clients.count(),
-                "pending_faults": len(self.pending_faults),
+                "pending_faults": len(self.pending_faults), "motion_time": self.motion_time,
                 "rtde_clients": len(self.rtde_conns), "log_tail": list(self.log_lines)[-20:],
             }
 
