@@ -282,19 +282,22 @@ class Controller:
 
     def output_value(self, name: str):
         """Current value of an RTDE output variable (registers, state, arm)."""
-        if name.startswith("output_int_register_"):
-            return self.out_int[int(name[20:])]
-        if name.startswith("output_double_register_"):
-            return self.out_double[int(name[23:])]
-        if name.startswith("input_"):
-            return self.inputs.get(name, 0)
-        if name.startswith("output_bit_register"):
-            return 0
-        return self._snapshot_value(name)
+        return self.output_getter(name)()
 
-    def _snapshot_value(self, name):
-        getter = self._getters.get(name)
-        return getter() if getter is not None else 0
+    def output_getter(self, name: str):
+        """A callable giving the current value of output `name` (resolved once per recipe, so the
+        tick does no name parsing; call it under the lock)."""
+        if name.startswith("output_int_register_"):
+            k = int(name[20:])
+            return lambda: self.out_int[k]
+        if name.startswith("output_double_register_"):
+            k = int(name[23:])
+            return lambda: self.out_double[k]
+        if name.startswith("input_"):
+            return lambda: self.inputs.get(name, 0)
+        if name.startswith("output_bit_register"):
+            return lambda: 0
+        return self._getters.get(name, _zero)
 
     def _make_getters(self) -> dict:
         arm = self.arm
@@ -592,3 +595,8 @@ _TEMPS = np.full(6, 32.0)
 _VOLTS = np.full(6, 47.5)
 _ACC = np.array([0.0, 0.0, 9.81])
 _ZERO6 = np.zeros(6)
+
+
+def _zero():
+    """An output the stand-in does not model: zeros of the variable's width (see rtde_server)."""
+    return 0
