@@ -152,9 +152,10 @@ class ControlScript:
         except Exception as exc:  # a bug in the emulation must not look like a hang
             ctrl.runtime_error(f"stand-in error: {type(exc).__name__}: {exc}")
             return
-        if self.running:
-            ctrl.log("textmsg: RTDE Control Script Terminated")
-            self.running = False
+        with ctrl.lock:
+            if self.running:
+                ctrl.log("textmsg: RTDE Control Script Terminated")
+                self.running = False
 
     def _check(self) -> None:
         if self._killed.is_set():

@@ -156,8 +156,10 @@ class RTDEConnection:
                     del self.ctrl.owners[name]
 
     def _reply(self, kind: bytes, payload: bytes) -> None:
-        if self.ctrl.reply_delay:
-            time.sleep(self.ctrl.reply_delay)
+        with self.ctrl.lock:
+            delay = self.ctrl.reply_delay
+        if delay:
+            time.sleep(delay)
         self._send(frame(kind, payload))
 
     def _handle(self, kind: int, payload: bytes) -> None:
