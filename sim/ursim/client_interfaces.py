@@ -116,7 +116,7 @@ def realtime_package(ctrl, s: dict | None = None) -> bytes:
          *s["tcp_speed"], *z6, *s["pose_target"], *s["tcp_speed"], float(s["digital_in"]), *([32.0] * 6), s["t"],
          0.0, float(s["robot_mode"]), *([float(jmode)] * 6), float(s["safety_mode"]), *z6, 0.0, 0.0, 9.81, *z6,
          s["speed_scaling"], 0.0, 0.0, 0.0, 48.0, 48.0 if on else 0.0, 0.0, *([47.5 if on else 0.0] * 6),
-         float(s["digital_out"]), float(s["runtime"]), *s["elbow"], 0.0, 0.0, 0.0, float(s["safety_status_bits"]),
+         float(s["digital_out"]), float(s["runtime"]), *s["elbow"], 0.0, 0.0, 0.0, float(s["safety_mode"]),
          0.0, 0.0, 0.0, s["payload"], *s["payload_cog"], *z6]
     return _RT.pack(REALTIME_SIZE, *v)
 
