@@ -9,7 +9,7 @@ period after the previous one (no skipped tick) and it arrives within one period
 (the stand-in's own share, free of the client's wake-up latency). The client runs SCHED_FIFO when
 the process may (recorded in the JSON). CPU is the stand-in process's user+system time over the
 window, in percent of one core. Baseline in the same run: the stand-in idling with no client, and
-a 125 Hz stream.
+a 125 Hz stream; a last row streams every output the stand-in serves in one recipe at 500 Hz.
 """
 from __future__ import annotations
 
@@ -101,7 +101,7 @@ def _stream(host: str, freq: float, names: list[str], seconds: float, pid: int) 
 
 
 def _run(extra: list[str], label: str) -> list[dict]:
-    from sim.ursim.rtde_vars import receive_default_variables
+    from sim.ursim.rtde_vars import OUTPUTS, receive_default_variables
 
     names = receive_default_variables((5, 15, 0, 0))
     host = _free_host()
@@ -118,6 +118,7 @@ def _run(extra: list[str], label: str) -> list[dict]:
         rows = [{"stream": "idle (no client)", "cpu_pct": idle}]
         rows.append(_stream(host, 500.0, names, SECONDS, proc.pid))
         rows.append(_stream(host, 125.0, names, SECONDS / 2, proc.pid))
+        rows.append(_stream(host, 500.0, list(OUTPUTS), SECONDS / 2, proc.pid))  # every output in one recipe
         for r in rows:
             r["scheduling"] = label
         for r in rows[1:]:

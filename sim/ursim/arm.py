@@ -1,6 +1,10 @@
 """The simulated arm's motion executor: advances planned trajectories, servo and speed control one
 controller period at a time, and stops them (decelerating stop or immediate halt).
 
+Joint accelerations: trajectories follow their planned `a` (time-scaled by the speed slider, so
+accelerations scale by its square); servo and speed control, and stops from them, are bounded by
+`joint_accel_max`; a halt (protective or emergency stop, a killed program) stops at once.
+
 Called from the controller's tick thread only; other threads hand it work through the methods
 below, which take the controller lock. Callbacks run in the tick thread and must be quick.
 """
@@ -57,7 +61,7 @@ class Arm:
             self._finish(False)
             self.mode = "speed"
         self._speed_target = np.asarray(qd, dtype=np.float64)
-        self._speed_acc = max(float(acceleration), 1e-6)
+        self._speed_acc = min(max(float(acceleration), 1e-6), self.joint_accel_max)
         self._speed_deadline = now + duration if duration else None
 
     def stop(self, deceleration: float, on_done=None) -> None:
@@ -74,9 +78,10 @@ class Arm:
                     on_done(True)
             self._on_done = done
             self._on_marker = None
-        elif self.mode == "speed":
+        elif self.mode in ("speed", "servo"):  # servo: ramp the current joint speed down as well
+            self.mode = "speed"
             self._speed_target = np.zeros(6)
-            self._speed_acc = deceleration
+            self._speed_acc = min(deceleration, self.joint_accel_max)
             self._speed_deadline = None
             self._after_speed_stop = on_done
         else:
@@ -126,11 +131,13 @@ class Arm:
         acceleration bounded, braking so as to stop on the target (lookahead and gain ignored)."""
         d = self._servo_target - self.q
         a = self.joint_accel_max
-        v_stop = np.sqrt(2.0 * a * np.abs(d))  # the speed from which the arm can still stop on target
+        # the speed from which the arm still stops on the target losing a*dt per period:
+        # v^2 / (2a) + v dt / 2 = |d|  (the discrete form of v = sqrt(2 a |d|))
+        v_stop = a * (np.sqrt(dt * dt / 4.0 + 2.0 * np.abs(d) / a) - dt / 2.0)
         v_want = np.sign(d) * np.minimum(self.joint_speed_max * fraction, v_stop)
         v = self.qd + np.clip(v_want - self.qd, -a * dt, a * dt)
         step = v * dt
-        arrive = (np.abs(step) >= np.abs(d)) & (step * d >= 0)  # the last step lands exactly (|v| <= 2 a dt here)
+        arrive = (np.abs(step) >= np.abs(d)) & (step * d >= 0)  # the last step lands exactly
         self.q = np.where(arrive, self._servo_target, self.q + step)
         self.target_q = self._servo_target.copy()
 

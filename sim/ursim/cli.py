@@ -134,21 +134,21 @@ def run_stand_in(args) -> int:
     from sim.ursim.admin import parse_fault_option
     from sim.ursim.server import StandIn
 
-    cfg = config_from_args(args)
-    if args.log:
-        try:
-            open(args.log, "a").close()
-        except OSError as exc:
-            raise InputError(f"cannot write: {exc.strerror}", source=args.log) from None
     faults = []
     for text in args.fault:
         try:
             faults.append(parse_fault_option(text))
         except ValueError as exc:
             raise InputError(str(exc), source="--fault") from None
+    cfg = config_from_args(args)
     programs = Path(args.programs) if args.programs else None
     if programs is not None and not programs.is_dir():
         raise InputError("not a directory", source=args.programs)
+    if args.log:
+        try:
+            open(args.log, "a").close()
+        except OSError as exc:
+            raise InputError(f"cannot write: {exc.strerror}", source=args.log) from None
     try:
         stand_in = StandIn(cfg, programs)
     except OSError as exc:

@@ -53,10 +53,10 @@ def snapshot(ctrl) -> dict:
             "qdd": arm.qdd.copy(), "pose": ctrl.tcp_pose.copy(), "pose_target": ctrl.tcp_pose.copy(),
             "tcp_speed": ctrl.tcp_speed.copy(), "tcp_offset": ctrl.tcp_offset_pose(),
             "robot_mode": ctrl.robot_mode, "safety_mode": ctrl.safety_mode, "runtime": ctrl.runtime_state,
-            "speed_fraction": ctrl.speed_fraction, "speed_scaling": ctrl.output_value("speed_scaling"),
+            "speed_fraction": ctrl.speed_fraction, "speed_scaling": ctrl.speed_scaling,
             "digital_in": 0, "digital_out": ctrl.digital_out, "analog_out": list(ctrl.analog_out),
             "safety_status_bits": ctrl.safety_status_bits, "payload": ctrl.payload,
-            "payload_cog": ctrl.payload_cog.copy(), "elbow": ctrl.output_value("elbow_position"),
+            "payload_cog": ctrl.payload_cog.copy(), "elbow": ctrl.output_getter("elbow_position")(),
             "tool_output_mode": ctrl.tool_output_mode, "tool_do_modes": tuple(ctrl.tool_digital_output_modes),
         }
 
@@ -116,7 +116,7 @@ def realtime_package(ctrl, s: dict | None = None) -> bytes:
          *s["tcp_speed"], *z6, *s["pose_target"], *s["tcp_speed"], float(s["digital_in"]), *([32.0] * 6), s["t"],
          0.0, float(s["robot_mode"]), *([float(jmode)] * 6), float(s["safety_mode"]), *z6, 0.0, 0.0, 9.81, *z6,
          s["speed_scaling"], 0.0, 0.0, 0.0, 48.0, 48.0 if on else 0.0, 0.0, *([47.5 if on else 0.0] * 6),
-         float(s["digital_out"]), float(s["runtime"]), *s["elbow"], 0.0, 0.0, 0.0, float(s["safety_status_bits"]),
+         float(s["digital_out"]), float(s["runtime"]), *s["elbow"], 0.0, 0.0, 0.0, float(s["safety_mode"]),
          0.0, 0.0, 0.0, s["payload"], *s["payload_cog"], *z6]
     return _RT.pack(REALTIME_SIZE, *v)
 
@@ -151,3 +151,28 @@ class Stream:
         except OSError:
             return b""
         return data[n:]
+
+
+def stream_interfaces(ctrl, k: int) -> None:
+    """The real-time package every period to 30003 clients, the robot state every 100 ms to
+    30001/30002 clients (called by the tick thread)."""
+    with ctrl.lock:
+        streams = list(ctrl.interface_streams)
+    if not streams:
+        return
+    rt = [st for st in streams if st.kind == "realtime"]
+    state = []
+    if k >= ctrl.next_state_tick:  # due-tick, not k % n: a tick skipped under load must not skip a state
+        ctrl.next_state_tick = k + max(1, int(round(STATE_PERIOD_S / ctrl.period)))
+        state = [st for st in streams if st.kind != "realtime"]
+    if not rt and not state:
+        return
+    snap = snapshot(ctrl)
+    if rt:
+        pkg = realtime_package(ctrl, snap)
+        for st in rt:
+            st.offer(pkg)
+    if state:
+        msg = robot_state_message(ctrl, snap)
+        for st in state:
+            st.offer(msg)

@@ -152,9 +152,10 @@ class ControlScript:
         except Exception as exc:  # a bug in the emulation must not look like a hang
             ctrl.runtime_error(f"stand-in error: {type(exc).__name__}: {exc}")
             return
-        if self.running:
-            ctrl.log("textmsg: RTDE Control Script Terminated")
-            self.running = False
+        with ctrl.lock:
+            if self.running:
+                ctrl.log("textmsg: RTDE Control Script Terminated")
+                self.running = False
 
     def _check(self) -> None:
         if self._killed.is_set():
@@ -291,7 +292,7 @@ class ControlScript:
             except ValueError as exc:
                 raise PlanError(str(exc)) from None
         elif cmd == 26:
-            ctrl.out_double[self.off_f] = ctrl.period
+            self._out_vec(0, [ctrl.period])
         elif cmd in (27, 58):
             self._out_vec(0, ctrl.arm.q if cmd == 27 else matrix_to_pose(K.fk(ctrl.model, ctrl.arm.q)))
         elif cmd == 28:
@@ -340,8 +341,9 @@ class ControlScript:
         elif cmd in (67, 68, 69, 70, 71):
             # dynamics getters (mass matrix, Jacobians ...): the stand-in's arm is kinematic, so the
             # result registers say "no value" (NaN) instead of carrying stale numbers
-            for k in list(range(0, 24)) + list(range(36, 48)):
-                ctrl.out_double[k] = float("nan")
+            with ctrl.lock:
+                for k in list(range(0, 24)) + list(range(36, 48)):
+                    ctrl.out_double[k] = float("nan")
         elif cmd in (6, 7, 8, 18, 19, 20, 21, 52, 53, 56, 57, 59, 62, 66):
             pass  # force/teach/freedrive/gravity settings: accepted, no effect on the kinematic arm
         elif cmd == 255:

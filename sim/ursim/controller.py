@@ -102,6 +102,9 @@ class Controller:
         self.tool_output_mode = 0  # RTDE tool_output_mode / tool mode info: standard digital outputs
         self.tool_digital_output_modes = [1, 1]  # 1 = sinking (NPN), the controller's default
         self.interface_streams: list = []  # client_interfaces.Stream of the 30001-30003 clients
+        self.next_state_tick = 0  # tick of the next 10 Hz robot state (client_interfaces)
+        self.output_getters: dict | None = None  # outputs.output_getter's table, built on first use
+        self.motion_time = 0.0  # controller seconds with the arm under motion control (admin state)
         self.execution_time_ms = 0.0  # RTDE actual_execution_time: the last tick's computing time
         self.inputs = {name: (0.0 if t == "DOUBLE" else (np.zeros(6) if t == "VECTOR6D" else 0))
                        for name, t in INPUTS.items()}
@@ -138,7 +141,6 @@ class Controller:
         self._q_for_pose = None
         self._contact_depth = 0.0
         self._update_pose()
-        self._getters = self._make_getters()
         self._thread = threading.Thread(target=self._tick_loop, name="ursim-tick", daemon=True)
 
     # ---- lifecycle ---------------------------------------------------------------------------
@@ -280,59 +282,13 @@ class Controller:
 
     def output_value(self, name: str):
         """Current value of an RTDE output variable (registers, state, arm)."""
-        if name.startswith("output_int_register_"):
-            return self.out_int[int(name[20:])]
-        if name.startswith("output_double_register_"):
-            return self.out_double[int(name[23:])]
-        if name.startswith("input_"):
-            return self.inputs.get(name, 0)
-        if name.startswith("output_bit_register"):
-            return 0
-        return self._snapshot_value(name)
+        return self.output_getter(name)()
 
-    def _snapshot_value(self, name):
-        getter = self._getters.get(name)
-        return getter() if getter is not None else 0
+    def output_getter(self, name: str):
+        """A callable giving the current value of RTDE output `name` (see `outputs`)."""
+        from sim.ursim.outputs import output_getter
 
-    def _make_getters(self) -> dict:
-        arm = self.arm
-        return {
-            "timestamp": lambda: self.timestamp,
-            "target_q": lambda: arm.target_q, "target_qd": lambda: arm.qd, "actual_q": lambda: arm.q,
-            "actual_qd": lambda: arm.qd, "actual_TCP_pose": lambda: self._tcp_pose,
-            "target_TCP_pose": lambda: self._tcp_pose, "actual_TCP_speed": lambda: self._tcp_speed,
-            "target_TCP_speed": lambda: self._tcp_speed, "robot_mode": lambda: self.robot_mode,
-            "safety_mode": lambda: self.safety_mode, "safety_status": lambda: self.safety_mode,
-            "runtime_state": lambda: self.runtime_state, "robot_status_bits": lambda: self.robot_status_bits,
-            "safety_status_bits": lambda: self.safety_status_bits,
-            "actual_digital_output_bits": lambda: self.digital_out,
-            "speed_scaling": lambda: self.speed_scaling,
-            "target_speed_fraction": lambda: self.speed_fraction,
-            "standard_analog_output0": lambda: self.analog_out[0],
-            "standard_analog_output1": lambda: self.analog_out[1],
-            "joint_mode": lambda: _JOINT_MODE_RUNNING if self.robot_mode == ROBOT_RUNNING else _JOINT_MODE_IDLE,
-            "joint_temperatures": lambda: _TEMPS, "actual_main_voltage": lambda: 48.0,
-            "actual_robot_voltage": lambda: 48.0 if self.robot_mode >= 4 else 0.0,
-            "actual_joint_voltage": lambda: _VOLTS, "actual_execution_time": lambda: self.execution_time_ms,
-            "actual_tool_accelerometer": lambda: _ACC, "payload": lambda: self.payload,
-            "payload_cog": lambda: self.payload_cog, "payload_inertia": lambda: self.payload_inertia,
-            "target_qdd": lambda: arm.qdd, "elbow_velocity": lambda: self._elbow_velocity(),
-            "tool_output_mode": lambda: self.tool_output_mode,
-            "tool_digital_output0_mode": lambda: self.tool_digital_output_modes[0],
-            "tool_digital_output1_mode": lambda: self.tool_digital_output_modes[1],
-            "actual_configurable_digital_output_bits": lambda: (self.digital_out >> 8) & 0xFF,
-            "tool_output_voltage": lambda: 24 if self.robot_mode >= 4 else 0,
-            "tool_mode": lambda: _JOINT_MODE_RUNNING[0] if self.robot_mode == ROBOT_RUNNING else 255,
-            "tool_temperature": lambda: 30.0, "target_moment": lambda: _ZERO6, "tcp_offset": lambda: self.tcp_offset_pose(),
-            "elbow_position": lambda: K.fk_frames(self.model, arm.q)[3, :3, 3],
-        }
-
-    def _elbow_velocity(self) -> np.ndarray:
-        q, qd = self.arm.q, self.arm.qd
-        if not np.any(qd):
-            return np.zeros(3)
-        h = 1e-6
-        return (K.fk_frames(self.model, q + qd * h)[3, :3, 3] - K.fk_frames(self.model, q)[3, :3, 3]) / h
+        return output_getter(self, name)
 
     def set_payload(self, mass: float, cog=None, inertia=None, source: str = "urscript") -> None:
         """`set_payload(m, cog)` / ur_rtde `setPayload`: store and report the payload (RTDE
@@ -477,6 +433,8 @@ class Controller:
                 try:
                     for j in range(steps):  # catching up: every missed period is simulated and checked
                         self.timestamp = (k - steps + 1 + j) * period
+                        if self.arm.mode != "idle":
+                            self.motion_time += period
                         self.arm.step(period, self.speed_fraction if not self.paused else 0.0, self.timestamp)
                         self._safety_checks()
                     self._update_pose()
@@ -491,41 +449,22 @@ class Controller:
             with self.tick_cond:
                 self.tick_cond.notify_all()
             self._stream(k)
-            self._stream_interfaces(k)
+            if self.interface_streams:
+                from sim.ursim.client_interfaces import stream_interfaces
+
+                stream_interfaces(self, k)
 
     def _stream(self, k: int) -> None:
-        if time.monotonic() < self.stall_until:
-            return
-        for conn in list(self.rtde_conns):
+        with self.lock:
+            if time.monotonic() < self.stall_until:
+                return
+            conns = list(self.rtde_conns)
+        for conn in conns:
             try:
                 conn.maybe_send(k, self)
             except Exception as exc:  # one bad recipe or socket must not stop the others
                 self.log(f"rtde client {conn.id}: cannot send ({type(exc).__name__}: {exc}): closing")
                 conn.close()
-
-    def _stream_interfaces(self, k: int) -> None:
-        """The real-time package every period to 30003 clients, the robot state every 100 ms to
-        30001/30002 clients (client_interfaces)."""
-        with self.lock:
-            streams = list(self.interface_streams)
-        if not streams:
-            return
-        from sim.ursim import client_interfaces as ci
-
-        every = max(1, int(round(ci.STATE_PERIOD_S / self.period)))
-        rt = [st for st in streams if st.kind == "realtime"]
-        state = [st for st in streams if st.kind != "realtime"] if k % every == 0 else []
-        if not rt and not state:
-            return
-        snap = ci.snapshot(self)
-        if rt:
-            pkg = ci.realtime_package(self, snap)
-            for st in rt:
-                st.offer(pkg)
-        if state:
-            msg = ci.robot_state_message(self, snap)
-            for st in state:
-                st.offer(msg)
 
     # ---- scheduled faults --------------------------------------------------------------------
     def schedule_fault(self, fault: dict) -> None:
@@ -572,17 +511,9 @@ class Controller:
                 "speed_fraction": self.speed_fraction, "last_error": self.last_error,
                 "payload": self.payload, "payload_cog": self.payload_cog.tolist(),
                 "operational_mode": self.operational_mode, "clients": self.clients.count(),
-                "pending_faults": len(self.pending_faults),
+                "pending_faults": len(self.pending_faults), "motion_time": self.motion_time,
                 "rtde_clients": len(self.rtde_conns), "log_tail": list(self.log_lines)[-20:],
             }
 
     def state_json(self) -> str:
         return json.dumps(self.state())
-
-
-_JOINT_MODE_RUNNING = np.full(6, 253, dtype=np.int64)  # JOINT_RUNNING_MODE
-_JOINT_MODE_IDLE = np.full(6, 250, dtype=np.int64)  # JOINT_IDLE_MODE (brakes on)
-_TEMPS = np.full(6, 32.0)
-_VOLTS = np.full(6, 47.5)
-_ACC = np.array([0.0, 0.0, 9.81])
-_ZERO6 = np.zeros(6)

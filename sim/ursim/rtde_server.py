@@ -45,6 +45,7 @@ class OutputRecipe:
     widths: tuple
     packer: struct.Struct
     every: int
+    getters: tuple  # Controller.output_getter of each name
 
 
 def _flatten(values, widths) -> list:
@@ -107,7 +108,7 @@ class RTDEConnection:
             due = self.started and not self.closed and rec is not None and k >= self.next_tick
             if due:
                 self.next_tick = k + rec.every * ctrl.stream_decimate
-                values = [ctrl.output_value(n) for n in rec.names]
+                values = [g() for g in rec.getters]
         if not due:
             if self.backlog:
                 with self.send_lock:
@@ -155,8 +156,10 @@ class RTDEConnection:
                     del self.ctrl.owners[name]
 
     def _reply(self, kind: bytes, payload: bytes) -> None:
-        if self.ctrl.reply_delay:
-            time.sleep(self.ctrl.reply_delay)
+        with self.ctrl.lock:
+            delay = self.ctrl.reply_delay
+        if delay:
+            time.sleep(delay)
         self._send(frame(kind, payload))
 
     def _handle(self, kind: int, payload: bytes) -> None:
@@ -209,7 +212,8 @@ class RTDEConnection:
             return
         self.recipes_made += 1
         rec = OutputRecipe(id=self.recipes_made, names=tuple(names), widths=tuple(TYPE_WIDTH.get(t, 1) for t in types),
-                           packer=record_format(types), every=max(1, int(round(base / freq))))
+                           packer=record_format(types), every=max(1, int(round(base / freq))),
+                           getters=tuple(ctrl.output_getter(n) for n in names))
         with ctrl.lock:
             self.recipe = rec  # one assignment: the tick streams the old recipe or the new one, whole
         self._reply(b"O", struct.pack(">B", rec.id) + ",".join(types).encode())

@@ -237,7 +237,8 @@ class URScriptProgram:
         except PlanError as exc:
             ctrl.runtime_error(str(exc))
         finally:
-            self.running = False
+            with ctrl.lock:
+                self.running = False
 
     def _move_group(self, i: int) -> int:
         """Run the moves from statement i as one blended motion; returns the next statement index.
