@@ -1,10 +1,12 @@
 """README examples run as written: the pipeline walk-through, from generate to the dry-run send."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -27,9 +29,17 @@ def test_readme_walkthrough_runs_as_written(tmp_path):
     script = script.replace("127.0.0.9", host)  # a free address: tests run in parallel
     shutil.copytree(ROOT / "cells", tmp_path / "cells")
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
-    proc = subprocess.run(["bash", "-e", "-c", script], cwd=tmp_path, env=env, capture_output=True, text=True,
-                          timeout=300)
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    # its own session: whatever happens (a failed step under `bash -e` skips the `kill $URSIM`), the
+    # stand-in started in the background is killed with the group
+    proc = subprocess.Popen(["bash", "-e", "-c", script], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=300)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=10)
+    assert proc.returncode == 0, out[-3000:] + err[-3000:]
     walk = tmp_path / "walk"
     relax = json.loads((walk / "relax.json").read_text())
     assert relax["converged"] and relax["final"]["max_abs_angle_defect_rad"] <= 1e-8
