@@ -11,12 +11,15 @@ Layout we write (design.md, reference §1):
 - every fold state is a `file_frames` child with `frame_parent: 0`, `frame_inherit: true`,
   `frame_classes ["foldedForm"]`, `frame_attributes ["3D"]`, overriding `vertices_coords` (and
   `edges_foldAngle` when the state has its own angles);
+- `frame_attributes` measured from the content (`2D` when every z is 0, else `3D`; `cuts`/`joins`);
+- quad diagonals (`J` inside) written as `F` with `edges_fabkit:join` = 1, so Origami Simulator's
+  importer (which knows only U V M B F C) loads the file; read back as `J` (`flavour="spec"` writes J);
 - `file_spec 1.2`, `file_creator "fabkit"`, `file_classes ["animation"]` when there are frames;
 - project data as `faces_fabkit:<name>`, `vertices_fabkit:<name>`, `edges_fabkit:<name>`,
   `file_fabkit:<name>`, `frame_fabkit:<name>`.
 
 Reading is lenient where the spec allows (2D coordinates, any `frame_unit`, `edges_foldAngles` of
-spec 1.0, `null` angles, missing edges derived from faces) and strict where a mistake would bend
+spec 1.0, `null` angles, missing edges derived from faces, lower-case assignments) and strict where a mistake would bend
 metal (types, lengths, indices, assignments, angle signs); every error is one line naming the file
 and the element. Remarks made while reading (unit assumptions, a pattern rotated into z = 0) are in
 `model.notes`.

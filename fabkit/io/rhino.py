@@ -144,9 +144,7 @@ def save_3dm(mesh: PolyMesh, path: str | os.PathLike, title: str = "") -> None:
     for x, y, z in mesh.vertices.tolist():
         rm.Vertices.AddPoint3d(x, y, z)
     for f in mesh.faces_list():
-        if len(f) == 3:
-            rm.Faces.AddFace(*f)
-        elif len(f) == 4:
+        if len(f) in (3, 4):
             rm.Faces.AddFace(*f)
         else:
             raise InputError(f"a Rhino mesh has triangles and quads only; this panel has a {len(f)}-gon "

@@ -27,16 +27,14 @@ from fabkit.errors import InputError
 
 __all__ = ["read_svg_crease_pattern", "RawCreasePattern", "STROKE_ASSIGNMENT"]
 
+_COLOURS = ((("#000000", "#000", "black", "rgb(0,0,0)"), "B"),
+            (("#ff0000", "#f00", "red", "rgb(255,0,0)"), "M"),
+            (("#0000ff", "#00f", "blue", "rgb(0,0,255)"), "V"),
+            (("#00ff00", "#0f0", "green", "rgb(0,255,0)"), "C"),
+            (("#ffff00", "#ff0", "yellow", "rgb(255,255,0)"), "F"),
+            (("#ff00ff", "#f0f", "magenta", "rgb(255,0,255)"), "U"))
 #: stroke colour -> FOLD assignment, as Origami Simulator's `typeForStroke`
-STROKE_ASSIGNMENT = {}
-for _names, _letter in ((("#000000", "#000", "black", "rgb(0,0,0)"), "B"),
-                        (("#ff0000", "#f00", "red", "rgb(255,0,0)"), "M"),
-                        (("#0000ff", "#00f", "blue", "rgb(0,0,255)"), "V"),
-                        (("#00ff00", "#0f0", "green", "rgb(0,255,0)"), "C"),
-                        (("#ffff00", "#ff0", "yellow", "rgb(255,255,0)"), "F"),
-                        (("#ff00ff", "#f0f", "magenta", "rgb(255,0,255)"), "U")):
-    for _n in _names:
-        STROKE_ASSIGNMENT[_n] = _letter
+STROKE_ASSIGNMENT = {name: letter for names, letter in _COLOURS for name in names}
 
 _MM_PER = {"mm": 1.0, "cm": 10.0, "in": 25.4, "pt": 25.4 / 72}
 _NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
