@@ -258,3 +258,14 @@ def test_book_table_in_headless_chromium(produced, tmp_path):
     ok = [p for p in rep["panels"] if p["ok"]]
     for kind in ("refold", "program", "check", "dxf"):
         assert sum(link == p["files"][kind] for p in ok for link in parser.links) == len(ok)
+
+
+def test_production_refuses_bad_options_before_any_work(tmp_path):
+    src = tmp_path / "vault.obj"
+    save_obj(pleated_vault(**SMALL), src)
+    base = [src, "-o", tmp_path / "out", "--cols", 2, "--columns-per-panel", 4]
+    for extra, word in ((["--cell", tmp_path / "nope.toml"], "nope.toml"), (["--cell", CELL, "--sheet", "12x"], "--sheet"),
+                        (["--cell", CELL, "--material", "wood"], "wood"), (["--cell", CELL, "--frames", 1], "--frames")):
+        r = _run([*base, *extra], timeout=120)
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and word in r.stderr, r.stderr
+        assert not (tmp_path / "out").exists()
