@@ -81,6 +81,7 @@ def produced(tmp_path_factory):
     return {"src": src, "out": out, "args": args, "report": json.loads((out / "production.json").read_text())}
 
 
+@pytest.mark.slow
 def test_every_panel_is_programmed_and_checked_or_named(produced):
     out, rep = produced["out"], produced["report"]
     assert rep["totals"]["panels"] == 4 and len(rep["panels"]) == 4
@@ -112,6 +113,7 @@ def test_every_panel_is_programmed_and_checked_or_named(produced):
     assert all(a["neighbours"] for a in assembly["panels"])
 
 
+@pytest.mark.slow
 def test_rerun_recomputes_nothing_and_one_override_one_panel(produced, tmp_path):
     r = _run(produced["args"])
     assert r.returncode in (0, 1), r.stderr
@@ -133,6 +135,7 @@ def test_rerun_recomputes_nothing_and_one_override_one_panel(produced, tmp_path)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "P999_nope" in r.stderr
 
 
+@pytest.mark.slow
 def test_sheets_hold_every_panel_once(produced):
     from shapely.geometry import Polygon, box
 
@@ -155,6 +158,7 @@ def test_sheets_hold_every_panel_once(produced):
     assert sorted(seen) == sorted(p["name"] for p in rep["panels"])
 
 
+@pytest.mark.slow
 def test_second_surface_built_here_plain_obj_permuted(tmp_path):
     """A straight-pleated sheet the test makes itself: zigzag profile extruded, untagged OBJ, vertices
     and faces in shuffled order; every panel ends with its files or a named reason."""
@@ -198,6 +202,7 @@ def test_second_surface_built_here_plain_obj_permuted(tmp_path):
     assert all(p.stage == "refold" and "not selected" in p.reason and not p.files for p in none.panels)
 
 
+@pytest.mark.slow
 def test_book_is_self_contained_and_lists_every_panel(produced):
     import re
 
@@ -209,6 +214,7 @@ def test_book_is_self_contained_and_lists_every_panel(produced):
         assert p["name"] in page
 
 
+@pytest.mark.slow
 def test_book_table_in_headless_chromium(produced, tmp_path):
     """The panel table is built by the page's script: read it back from the DOM chromium produced."""
     import html.parser
@@ -252,3 +258,14 @@ def test_book_table_in_headless_chromium(produced, tmp_path):
     ok = [p for p in rep["panels"] if p["ok"]]
     for kind in ("refold", "program", "check", "dxf"):
         assert sum(link == p["files"][kind] for p in ok for link in parser.links) == len(ok)
+
+
+def test_production_refuses_bad_options_before_any_work(tmp_path):
+    src = tmp_path / "vault.obj"
+    save_obj(pleated_vault(**SMALL), src)
+    base = [src, "-o", tmp_path / "out", "--cols", 2, "--columns-per-panel", 4]
+    for extra, word in ((["--cell", tmp_path / "nope.toml"], "nope.toml"), (["--cell", CELL, "--sheet", "12x"], "--sheet"),
+                        (["--cell", CELL, "--material", "wood"], "wood"), (["--cell", CELL, "--frames", 1], "--frames")):
+        r = _run([*base, *extra], timeout=120)
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and word in r.stderr, r.stderr
+        assert not (tmp_path / "out").exists()
