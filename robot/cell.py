@@ -1,4 +1,6 @@
-"""Robot cell descriptions (`cells/*.toml`): robot, tool, fixture, obstacles, limits.
+"""Robot cell descriptions (`cells/*.toml`): robot, tool, fixture, obstacles, limits; optional
+further arms (`[[arms]]`, each carrying the same tool), the clamp (`[clamp]`: jaw pose, footprint
+polygon, the obstacle carrying it) and the suction cup's footprint radius (`tool.cup_radius`).
 
 `load_cell(path)` reads a TOML file, validates it once and returns a frozen `Cell`. Every problem
 is one `InputError` line naming the file and the key (`tool.shapes[1].radius: ...`): unknown keys,
@@ -322,14 +324,8 @@ def parse_cell(data: dict, source: str) -> Cell:
     description = top.string("description", required=False)
 
     rr = top.table_("robot")
-    model = rr.string("model", choices=tuple(MODELS))
-    urm = get_model(model)
-    base_pose = rr.pose("base_pose")
-    home = rr.vector("home", 6, required=False, default=[0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0],
-                     unit="rad")
-    for i, q in enumerate(home):
-        if not urm.q_min[i] <= q <= urm.q_max[i]:
-            rr.fail("home", f"joint {i + 1} = {q:.12g} rad is outside [{urm.q_min[i]:.6g}, {urm.q_max[i]:.6g}]")
+    robot = _mount(rr)
+    model = robot.model
     rr.done()
 
     tr = top.table_("tool")
@@ -374,7 +370,7 @@ def parse_cell(data: dict, source: str) -> Cell:
                 lr.fail("joint_speed", f"joint {i + 1} = {v:.12g} rad/s exceeds the {arm_model}'s {vmax:.6g} rad/s")
     lr.done()
     top.done()
-    return Cell(name=name, description=description, robot=RobotMount(model, base_pose, home),
+    return Cell(name=name, description=description, robot=robot,
                 tool=Tool(tcp=tcp, shapes=shapes, grip_output=grip, grip_output_kind=kind, cup_radius=cup),
                 fixture=fixture, obstacles=obstacles, limits=limits, source=source, clamp=clamp,
                 extra_arms=extra, sha256=_data_sha256(data))
