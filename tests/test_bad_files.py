@@ -174,3 +174,21 @@ def test_mutated_files_fail_only_with_input_errors(tmp_path, kind):
                 assert str(exc).startswith(f"{bad}: ") and "\n" not in str(exc)
                 outcomes["refused"] += 1
     assert outcomes["refused"] > 100  # the mutations really break files
+
+
+@pytest.mark.parametrize("value", ["1e300", "-2e6", "1e308"])
+def test_readers_refuse_absurd_coordinates(tmp_path, value):
+    """Finite but absurd coordinates (beyond ±1e6 m) are refused by the OBJ and FOLD readers alike."""
+    import json
+
+    from fabkit.io import load_fold, load_obj
+
+    obj = tmp_path / "a.obj"
+    obj.write_text(f"v 0 0 0\nv 1 0 0\nv 1 1 {value}\nv 0 1 0\nf 1 2 3 4\n")
+    with pytest.raises(InputError, match=r"a.obj: vertex 2 \(line 3\) has coordinate .*beyond"):
+        load_obj(obj)
+    fold = tmp_path / "a.fold"
+    fold.write_text(json.dumps({"frame_unit": "m", "vertices_coords": [[0, 0], [1, 0], [1, float(value)], [0, 1]],
+                                "faces_vertices": [[0, 1, 2, 3]]}))
+    with pytest.raises(InputError, match=r"a.fold: vertices_coords: vertex 2 has coordinate .*beyond"):
+        load_fold(fold)

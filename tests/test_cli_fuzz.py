@@ -9,7 +9,6 @@ tool or a truncated download gives.
 from __future__ import annotations
 
 import json
-import shutil
 import tempfile
 from datetime import timedelta
 from pathlib import Path

@@ -53,26 +53,26 @@ class OutputPlan:
 
     # -- declaration (None and "" are ignored, lists are flattened) --------------------------
     def input(self, path, option: str) -> None:
-        for p in _paths(path):
+        for p in _paths(path, option):
             self.inputs.append(_Entry(Path(p), option))
 
     def output(self, path, option: str) -> None:
-        for p in _paths(path):
+        for p in _paths(path, option):
             self.outputs.append(_Entry(Path(p), option, FILE))
 
     def folder(self, path, option: str) -> None:
         """A folder output written all at once (its files appear together at commit)."""
-        for p in _paths(path):
+        for p in _paths(path, option):
             self.outputs.append(_Entry(Path(p), option, FOLDER))
 
     def workdir(self, path, option: str) -> None:
         """A folder created up front (removed again if the run fails and it is still empty)."""
-        for p in _paths(path):
+        for p in _paths(path, option):
             self.outputs.append(_Entry(Path(p), option, WORKDIR))
 
     def stream(self, path, option: str) -> None:
         """A file written while the command runs (a log): checked up front, kept as far as it got."""
-        for p in _paths(path):
+        for p in _paths(path, option):
             self.outputs.append(_Entry(Path(p), option, STREAM))
 
     # -- the checks ---------------------------------------------------------------------------
@@ -148,12 +148,13 @@ class OutputPlan:
         self._created = []
 
 
-def _paths(path) -> list[str]:
+def _paths(path, option: str = "output") -> list[str]:
     if path is None:
         return []
-    if isinstance(path, (list, tuple)):
-        return [str(p) for p in path if p]
-    return [str(path)] if str(path) else []
+    paths = [str(p) for p in path] if isinstance(path, (list, tuple)) else [str(path)]
+    if any(not p for p in paths):
+        raise OutputError("an empty file name", source=option)
+    return paths
 
 
 def _parent(path: Path) -> Path:

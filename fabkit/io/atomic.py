@@ -163,7 +163,7 @@ class StagedWrites:
         """(where to write, staged item) for a staged file or a path inside a staged folder."""
         key = _key(path)
         item = self._items.get(key)
-        if item is not None and not item.folder:
+        if item is not None:
             return item.temp, item
         for k, it in self._items.items():
             if it.folder and key.startswith(k + os.sep):
