@@ -72,7 +72,7 @@ class SendSettings:
     final_tol_m: float = 2e-4
     final_tol_rad: float = 2e-3
     start: StartTolerances = StartTolerances()
-    watchdog_hz: float = 5.0
+    watchdog_hz: float = 4.0
     rt_priority: int = -1
     connect_retry_s: float = 3.0  # keep trying the dashboard this long (a controller still starting)
 
