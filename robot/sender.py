@@ -31,7 +31,6 @@ stops the arm within 1 / `watchdog_hz` s. Use from a script needs no `__main__` 
 from __future__ import annotations
 
 import math
-import socket
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,10 +38,11 @@ from typing import Callable
 
 import numpy as np
 
-from robot.interlock import Cleared, StartTolerances, clear_for_send, verify_start
+from robot.interlock import Cleared, StartTolerances, clear_for_send
 from robot.path_chunks import (MAX_BLEND, MAX_JOINT_ACCEL, MAX_JOINT_SPEED, MAX_TOOL_ACCEL, MAX_TOOL_SPEED,
                                SendError, chunk_entries, point_segment_distance, point_segment_distance_nd,
                                pose_distance, printed, validate_waypoints)
+from robot.preflight import ControllerFault, dashboard_stop, prepare_controller, read_only_preflight
 from robot.rtde_worker import CallError, RTDEWorker, WorkerError
 
 __all__ = ["SendSettings", "SendResult", "SendError", "send_toolpath", "dashboard_stop", "validate_waypoints",
@@ -51,7 +51,6 @@ __all__ = ["SendSettings", "SendResult", "SendError", "send_toolpath", "dashboar
 
 RUNTIME_PLAYING = 2
 PROTECTIVE_BIT, ESTOP_BIT = 1 << 2, 1 << 7
-DASHBOARD_PORT = 29999
 
 
 @dataclass(frozen=True)
@@ -73,7 +72,7 @@ class SendSettings:
     final_tol_m: float = 2e-4
     final_tol_rad: float = 2e-3
     start: StartTolerances = StartTolerances()
-    watchdog_hz: float = 5.0
+    watchdog_hz: float = 4.0
     rt_priority: int = -1
     connect_retry_s: float = 3.0  # keep trying the dashboard this long (a controller still starting)
 
@@ -104,32 +103,7 @@ class SendResult:
         return {k: v for k, v in self.__dict__.items()}
 
 
-def dashboard_stop(host: str, timeout: float = 1.0) -> str:
-    """`stop` on a fresh dashboard connection (the program stops, and with it the arm); the reply or
-    why it failed. A plain socket rather than ur_rtde: a new ur_rtde client needs a new worker
-    process (seconds to start), and the dashboard's protocol is one text line each way."""
-    try:
-        with socket.create_connection((host, DASHBOARD_PORT), timeout=timeout) as s:
-            s.settimeout(timeout)
-            _read_line(s)  # the greeting
-            s.sendall(b"stop\n")
-            return _read_line(s)
-    except OSError as exc:
-        return f"dashboard stop failed: {exc}"
-
-
-def _read_line(s: socket.socket, limit: int = 4096) -> str:
-    buf = b""
-    while not buf.endswith(b"\n") and len(buf) < limit:
-        chunk = s.recv(256)
-        if not chunk:
-            break
-        buf += chunk
-    return buf.decode("utf-8", "replace").strip()
-
-
-class _Fault(Exception):
-    pass
+_Fault = ControllerFault
 
 
 class _Sender:
@@ -161,71 +135,10 @@ class _Sender:
 
     # ---- steps ----------------------------------------------------------------------------------
     def preflight(self) -> str:
-        """Read-only: the dashboard answers, the robot model is the toolpath's, remote control is on,
-        and the arm stands where this send may start. Changes nothing on the controller."""
-        s = self.s
-        t_end = time.monotonic() + s.connect_retry_s
-        while True:
-            try:
-                version = self.call("connect_dashboard", timeout=s.connect_timeout_s)
-                break
-            except CallError:
-                if time.monotonic() > t_end:
-                    raise
-                time.sleep(0.25)
-        model = self.call("dashboard", "get robot model").strip()
-        want = str(self.tp.robot).lower().removesuffix("e").upper()  # e-Series answer "UR5", "UR10"
-        if model.upper() != want:
-            raise _Fault(f"preflight: the controller reports robot model {model!r}, the toolpath is for "
-                         f"{self.tp.robot}")
-        remote = self.call("dashboard", "is in remote control")
-        if "true" not in remote.lower():
-            raise _Fault(f"preflight: remote control is off ({remote!r}); switch the pendant to Remote Control")
-        self.call("connect_receive", s.monitor_hz, timeout=s.connect_timeout_s)
-        st = self.call("state", timeout=max(1.0, s.stall_s * 2))
-        self.event(step="start position", q=st["q"], tcp_pose=st["tcp_pose"], resume_from=s.resume_from)
-        try:
-            verify_start(self.wps, s.resume_from, st["q"], st["tcp_pose"], s.start)
-        except SendError as exc:
-            if s.resume_from == 0:
-                raise _Fault(str(exc)) from None
-            raise
-        return version
+        return read_only_preflight(self.call, self.tp.robot, self.wps, self.s, self.event)
 
     def prepare(self) -> None:
-        """The changes a send needs: power on, unlock, then safety NORMAL."""
-        s = self.s
-        mode = self.call("dashboard", "robotmode")
-        if "RUNNING" not in mode:
-            if not s.power_on:
-                raise _Fault(f"preflight: {mode!r}, expected 'Robotmode: RUNNING' (use --power-on)")
-            self.call("dashboard", "power on")
-            self._wait_dashboard("robotmode", ("IDLE", "RUNNING"), 30.0)
-            self.call("dashboard", "brake release")
-            self._wait_dashboard("robotmode", ("RUNNING",), 30.0)
-        safety = self.call("dashboard", "safetystatus")
-        if "PROTECTIVE_STOP" in safety and s.unlock:
-            # a controller refuses for 5 s after the stop: wait that out, then give up
-            t_end = time.monotonic() + 6.0
-            while (reply := self.call("dashboard", "unlock protective stop")) != "Protective stop releasing":
-                if time.monotonic() > t_end:
-                    raise _Fault(f"preflight: unlock refused: {reply!r}")
-                time.sleep(0.5)
-            self.call("dashboard", "close safety popup")
-            safety = self.call("dashboard", "safetystatus")
-        if safety != "Safetystatus: NORMAL":
-            hint = " (use --unlock after inspecting the cause)" if "PROTECTIVE" in safety else ""
-            raise _Fault(f"preflight: {safety!r}, expected 'Safetystatus: NORMAL'{hint}")
-
-    def _wait_dashboard(self, command: str, words: tuple, timeout: float) -> str:
-        t_end = time.monotonic() + timeout
-        while True:
-            reply = self.call("dashboard", command)
-            if any(w in reply for w in words):
-                return reply
-            if time.monotonic() > t_end:
-                raise _Fault(f"preflight: {reply!r} after {timeout:g} s")
-            time.sleep(0.2)
+        prepare_controller(self.call, self.s)
 
     def poll(self) -> dict:
         """One state sample; raises _Fault on stall, safety stop or a stopped program."""

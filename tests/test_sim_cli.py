@@ -67,8 +67,12 @@ def test_planned_fold_program_passes_in_both_cells(planned, name, capsys):
     assert js["toolpath_sha256"] == tp.sha256
     assert js["panel_faces"] == 15 and js["waypoints"] == len(tp)
     assert js["configs_checked"] > len(tp)
-    # the tool stays clear of every face but the one it holds (None: nothing inside the windows)
-    assert js["min_clearance_m"] is None or js["min_clearance_m"] >= cell.limits.clearance
+    # the tool stays clear of every face but the one it holds: nothing comes inside the measuring
+    # window, which is wider than the cell's clearance
+    assert js["min_clearance_m"] is None and js["min_clearance_pair"] is None
+    assert js["clearance_window_m"] > js["clearance_limit_m"] == cell.limits.clearance
+    assert all(c is None for c in js["along_path"]["clearance_m"])
+    assert js["fold"]["path"].endswith("grid.fold") and js["cell_sha256"] == cell.sha256
     assert js["cycle_time_s"] > 0
     rep = json.loads((d / f"r_{name}.json").read_text())
     assert rep["ok"] and rep["configs_per_second"] > 0
