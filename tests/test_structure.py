@@ -120,3 +120,14 @@ def test_strips_one_face_wide_and_the_trifold_preset():
     tri = trifold_panel()
     s = panel_structure(plain(tri))
     assert np.array_equal(s.crease, true_creases(tri)) and s.n_strips == 3
+
+
+def test_given_crease_edges_win_over_the_geometry():
+    """A FOLD crease pattern's M/V/U edges are creases even where the sheet is flat."""
+    tagged = reflect_tagged(2, 60.0)
+    uv = np.asarray(tagged.vertex_data["uv"])
+    flat = plain(tagged, np.column_stack([uv, np.zeros(len(uv))]))
+    truth = true_creases(tagged)
+    s = panel_structure(flat, crease_edges=np.flatnonzero(truth))
+    assert np.array_equal(s.crease, truth) and s.n_strips == 3 and s.source["creases"] == "assignments"
+    assert set(s.assignment[truth]) == {"U"} and len(s.middle_row) == 3

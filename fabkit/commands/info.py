@@ -118,7 +118,7 @@ def summarize(path: str, frame: int | None = None, units: str | None = None) -> 
         "unit": "m",
         "loaded": loaded.to_report(),
         "warnings": list(mesh.warnings),
-        "structure": panel_structure(folded).summary(folded),
+        "structure": panel_structure(folded, crease_edges=_assigned_creases(model, folded)).summary(folded),
     }
     if model is not None:
         report.update({
@@ -135,6 +135,18 @@ def summarize(path: str, frame: int | None = None, units: str | None = None) -> 
         if model.n_frames:
             report.update(_frame_measures(model, model.mesh(validate=False)))
     return report
+
+
+def _assigned_creases(model, mesh):
+    """Mesh edge ids a FOLD file assigns M, V or U (explicit creases), or None for OBJ files or FOLD
+    files that assign none."""
+    import numpy as np
+
+    if model is None:
+        return None
+    ids = model.mesh_edge_index[np.isin(model.edges_assignment, ["M", "V", "U"])]
+    ids = ids[ids >= 0]
+    return ids if len(ids) else None
 
 
 #: a crease bent the wrong way by less than this (radians) counts as flat, not as a contradiction

@@ -32,6 +32,7 @@ def run(args) -> int:
     from fabkit.commands.info import structure_lines
     from fabkit.errors import InputError
     from fabkit.io.obj import load_obj, save_obj
+    from fabkit.mesh import PolyMesh
     from fabkit.structure import TAG_NAMES, panel_structure
 
     out = Path(args.output)
@@ -43,9 +44,8 @@ def run(args) -> int:
         raise InputError("tags are written to an .obj file", source=args.output)
     mesh = load_obj(args.input)
     if args.infer:
-        mesh = mesh.with_data().__class__(mesh.vertices, topology=mesh.topology, vertex_data=mesh.vertex_data,
-                                          face_data={k: v for k, v in mesh.face_data.items() if k not in TAG_NAMES},
-                                          validate=False)
+        mesh = PolyMesh(mesh.vertices, topology=mesh.topology, vertex_data=mesh.vertex_data, validate=False,
+                        face_data={k: v for k, v in mesh.face_data.items() if k not in TAG_NAMES})
     structure = panel_structure(mesh)
     tagged = structure.with_tags(mesh)
     save_obj(tagged, out)

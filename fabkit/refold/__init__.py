@@ -21,7 +21,7 @@ from fabkit.refold.sequence import (FoldSequence, build_schedule, edge_kind_name
                                     parse_steps)
 from fabkit.refold.triangulate import BOUNDARY, CREASE, DIAGONAL, RULING, TriangulatedPanel, triangulate_panel
 from fabkit.refold.validate import NotAFoldError, check_flat, check_is_fold, check_pair
-from fabkit.structure import PanelStructure, pair_structure
+from fabkit.structure import FLAT_ANGLE, PanelStructure, pair_structure
 
 __all__ = ["RefoldSolver", "refold", "FoldSequence", "NotAFoldError", "SOLVERS", "DEFAULT_LENGTH_RTOL"]
 
@@ -31,8 +31,6 @@ DEFAULT_LENGTH_RTOL = 1e-6
 #: spanning tree, so residuals add up: on the 2,500-vertex bench panel 1e-12 left edge lengths 3.5e-10
 #: relative (acceptance 1e-9), 1e-13 leaves 4e-11 for 0.4 more Newton-chord steps per state.
 DEFAULT_TOL = 1e-13
-#: Angle below which a crease or ruling counts as flat (F) rather than M/V [rad].
-FLAT_ANGLE = 1e-9
 #: Quads count as planar when every diagonal's target angle is below this [rad]; their diagonals are then
 #: held at their scheduled angles (~0) instead of solved for.
 PLANAR_QUAD_ANGLE = 1e-9

@@ -42,7 +42,7 @@ class PanelStructure:
     `middle` (F,) 0/1; `middle_row` faces (one per strip, by strip); `middle_creases` crease edge
     ids of the middle column (the paper's driven creases); `clamp_face`; `grip_faces` candidates
     (middle row without the clamp face, farthest from it first); `source` says per part whether
-    it came from tags or was inferred; `detection` the crease detection when creases were inferred.
+    it came from tags, from given assignments (creases) or was inferred; `detection` the crease detection when creases were inferred.
     """
 
     crease: np.ndarray
@@ -104,8 +104,14 @@ def crease_mask(mesh: PolyMesh) -> np.ndarray:
     return _creases_and_strips(mesh, mesh.face_data, dihedral_angles(mesh))[0]
 
 
-def _creases_and_strips(mesh: PolyMesh, fd, angle):
+def _creases_and_strips(mesh: PolyMesh, fd, angle, crease_edges=None):
     """(crease (E,), strip (F,) 0..k-1, oriented chains, detection or None, source)."""
+    if crease_edges is not None and "strip" not in fd:
+        given = np.zeros(mesh.n_edges, bool)
+        given[np.asarray(crease_edges, np.int64)] = True
+        strip = order_strips(mesh, strip_components(mesh, given), given)
+        crease = _strip_crease(mesh, strip)
+        return crease, strip, _oriented_chains(mesh, crease, None), None, "assignments"
     if "strip" in fd:
         raw = np.asarray(fd["strip"]).astype(np.int64)
         crease = _strip_crease(mesh, raw)
@@ -139,12 +145,16 @@ def _oriented_chains(mesh: PolyMesh, crease: np.ndarray, chains) -> list[list[in
     return out
 
 
-def panel_structure(mesh: PolyMesh, *, use_tags: bool = True) -> PanelStructure:
-    """The structure of `mesh` (folded, for inference): tags where present, geometry elsewhere."""
+def panel_structure(mesh: PolyMesh, *, use_tags: bool = True, crease_edges=None) -> PanelStructure:
+    """The structure of `mesh` (folded, for inference): tags where present, geometry elsewhere.
+
+    `crease_edges`: ids of `mesh.edges` that are creases by an explicit statement other than strip
+    tags (a FOLD file's M/V/U assignments); they win over the geometry, strip tags win over them.
+    Edges among them that separate no faces are dropped (strips must be regions)."""
     t = mesh.topology
     fd = mesh.face_data if use_tags else {}
     angle = dihedral_angles(mesh)
-    crease, strip, chains, detection, how = _creases_and_strips(mesh, fd, angle)
+    crease, strip, chains, detection, how = _creases_and_strips(mesh, fd, angle, crease_edges)
     source = {"creases": how, "strips": how}
     fold = chain_fold_angles(mesh, chains, angle)
     assignment = np.full(t.n_edges, "F", dtype="<U1")
