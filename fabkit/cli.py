@@ -53,15 +53,6 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def _load(name: str):
-    try:
-        return importlib.import_module(f"fabkit.commands.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name == f"fabkit.commands.{name}":
-            return None
-        raise
-
-
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The full parser; with `only`, just that subcommand's module is imported (fast start-up)."""
     parser = _Parser(
@@ -77,24 +68,12 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         if only is not None and name != only:
             sub.add_parser(name, help=summary, add_help=False)  # listed in --help, never parsed
             continue
-        module = _load(name)
-        if module is None:
-            p = sub.add_parser(name, help=f"{summary} [not built yet]", description=f"{summary}. Not built yet.")
-            p.set_defaults(_run=_not_built(name), _plan_files=lambda args, plan: None)
-            continue
+        module = importlib.import_module(f"fabkit.commands.{name}")
         p = sub.add_parser(name, help=summary, description=getattr(module, "HELP", summary),
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(p)
         p.set_defaults(_run=module.run, _plan_files=module.plan_files)
     return parser
-
-
-def _not_built(name: str):
-    def run(args) -> int:
-        print(f"fabkit {name}: error: this subcommand is not built yet", file=sys.stderr)
-        return EXIT_INPUT
-
-    return run
 
 
 class Terminated(Exception):

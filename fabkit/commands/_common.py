@@ -3,9 +3,8 @@ from __future__ import annotations
 
 import contextlib
 import sys
-from typing import Iterator
+from typing import Any, Iterator
 
-from fabkit.io.jsonfile import to_jsonable, write_json  # noqa: F401  (re-exported for the commands)
 
 
 def add_common(parser) -> None:
@@ -41,3 +40,17 @@ def say(args, text: str) -> None:
 def write_report(args, data: dict) -> None:
     if getattr(args, "report", None):
         write_json(args.report, data)
+
+
+def to_jsonable(obj: Any) -> Any:
+    """`fabkit.io.jsonfile.to_jsonable`, imported on use (keeps `fabkit SUB --help` free of numpy)."""
+    from fabkit.io.jsonfile import to_jsonable as convert
+
+    return convert(obj)
+
+
+def write_json(path, data: Any) -> None:
+    """`fabkit.io.jsonfile.write_json`, imported on use."""
+    from fabkit.io.jsonfile import write_json as write
+
+    write(path, data)

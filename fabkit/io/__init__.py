@@ -12,8 +12,12 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 from fabkit.errors import InputError
-from fabkit.mesh import PolyMesh
+
+if TYPE_CHECKING:  # the readers import numpy on use: `fabkit SUB --help` stays light
+    from fabkit.mesh import PolyMesh
 
 __all__ = ["load_mesh", "save_mesh", "load_obj", "save_obj", "load_fold", "save_fold", "export_mesh",
            "MESH_SUFFIXES", "load_panel", "save_panel"]
