@@ -1,6 +1,6 @@
 """Multi-panel workflow at scale: ~500 panels end to end (relax, unfold, congruency, one merge round).
 
-Target (issue 9): <= 120 s on 2 cores. Baseline in the same run: the same job on 1 worker, giving
+Target: <= 120 s on 2 cores. Baseline in the same run: the same job on 1 worker, giving
 the speed-up from 1 to 2 workers. Also the ~100-panel preset with the full feedback loop, with the
 shared boundary edges kept in the relaxation (default) and, as the baseline in the same run, without
 (panels relaxed independently; the 2D merge then has to absorb their 3D disagreement).
