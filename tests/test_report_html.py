@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from browser import chromium, count_colour, screenshot
+from browser import chromium, count_colour, dump_dom, screenshot, table_rows
 from fabkit.report.html import write_report_html
 
 
@@ -47,3 +47,15 @@ def test_report_renders_plots_in_chromium(tmp_path):
     # matplotlib's first two line colours must appear: the plots rendered
     blue, orange = count_colour(img, "#1f77b4"), count_colour(img, "#ff7f0e")
     assert blue > 200 and orange > 200, (blue, orange)
+
+
+@pytest.mark.skipif(chromium() is None, reason="Debian chromium not installed (scripts/system-deps.sh installs it)")
+def test_report_stage_table_reads_back_from_the_dom(tmp_path):
+    """What a person reads: the stage table as the browser built it, row by row."""
+    write_report_html(tmp_path, _summary(tmp_path))
+    rows = table_rows(dump_dom(tmp_path / "report.html"), "Stages")
+    assert rows[0] == ["stage", "result", "measure", "tolerance", "time", "note"]
+    assert rows[1] == ["relax", "pass", "max|defect| 1e-12", "1e-8", "0.40 s", ""]
+    assert rows[2] == ["check", "fail", "", "", "0.10 s", "x<y>"]
+    assert len(rows) == 3
+

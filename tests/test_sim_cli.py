@@ -112,6 +112,12 @@ def test_obstacle_variant_names_the_pair_and_the_first_waypoint(planned, tmp_pat
     assert first["waypoint"] == k and first["pair"] == ["suction_cup", "stray_clamp"]
     assert first["detail"].startswith("suction_cup × stray_clamp")
     assert f"waypoint {k}: collision: suction_cup × stray_clamp" in cap.out
+    # the clearance figures carry the collision: a negative distance between the named pair, and
+    # along the path a measured (not None) clearance at the waypoint that collides
+    assert isinstance(js["min_clearance_m"], float) and js["min_clearance_m"] < 0
+    assert "stray_clamp" in js["min_clearance_pair"]
+    at_k = js["along_path"]["clearance_m"][js["along_path"]["waypoint"].index(k)]
+    assert isinstance(at_k, float) and at_k < 0
 
 
 def _toml(data: dict) -> str:
