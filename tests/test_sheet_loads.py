@@ -1,5 +1,4 @@
 """Fold loads against the UR ratings and the cell's vacuum cup (robot/loads.py)."""
-import math
 from pathlib import Path
 
 import numpy as np
@@ -69,15 +68,17 @@ def test_6061_t6_remedy_is_perforation_not_grooving():
     assert wrist.remedy.startswith("perforate the crease to at most 14 % uncut") and "groove the" not in wrist.remedy
 
 
-def test_joint_torques_of_a_pure_force_match_the_lever_arm():
+def test_joint_torques_are_the_jacobian_transpose_of_the_wrench():
+    from robot.kinematics import fk, jacobian
+
     q = np.array([0.3, -1.2, 1.4, -1.8, -1.5708, 0.2])
+    flange = fk("ur5e", q)
+    w = np.array([12.0, -30.0, -100.0, 1.5, -0.7, 3.0])
+    tau = joint_torques("ur5e", q, flange[:3, 3], w[:3], w[3:])
+    np.testing.assert_allclose(tau, jacobian("ur5e", q).T @ w, atol=1e-12)
+    # a vertical force makes no torque about the vertical base axis; a couple about z is all the base's
     T = fk_tcp("ur5e", q)
-    f = np.array([0.0, 0.0, -100.0])
-    tau = joint_torques("ur5e", q, T[:3, 3], f)
-    # base joint axis is z: a vertical force makes no base torque; shoulder torque = F x horizontal reach
-    assert abs(tau[0]) < 1e-9
-    assert np.all(np.isfinite(tau)) and abs(tau[1]) > 10
-    # a pure couple about z is felt fully by the base joint
+    assert abs(joint_torques("ur5e", q, T[:3, 3], [0, 0, -100.0])[0]) < 1e-9
     assert joint_torques("ur5e", q, T[:3, 3], [0, 0, 0], [0, 0, 7.0])[0] == pytest.approx(7.0)
 
 

@@ -21,6 +21,7 @@ m_u(alpha) = m_p, and no overbend can reach a larger angle (`SpringbackError`).
 from __future__ import annotations
 
 import math
+
 from scipy.optimize import brentq
 
 from fabkit.errors import ToleranceError
