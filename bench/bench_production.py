@@ -27,7 +27,7 @@ def main() -> dict:
     from fabkit.nest import NestOptions, nest_panels, write_sheets
     from fabkit.panels.layout import layout_panels
     from fabkit.panels.output import write_run
-    from fabkit.panels.production import MATERIALS, run_production
+    from fabkit.panels.production import run_production, stock
     from fabkit.panels.production_report import summary
     from fabkit.panels.surface import GridSurface, grid_from_topology
     from fabkit.report.book import write_book
@@ -42,7 +42,7 @@ def main() -> dict:
                            columns_per_panel=6)
     t_layout = time.perf_counter() - t0
     n_prog = int(os.environ.get("FABKIT_BENCH_PROGRAMS", len(layout.panels)))
-    mat = MATERIALS["aluminium-1.0"]
+    mat = stock("5052-H32", 1.0e-3)
     with tempfile.TemporaryDirectory(prefix="fabkit-bench-production-") as tmp:
         out = Path(tmp) / "run"
         subset = {p.name for p in layout.panels[:n_prog]}

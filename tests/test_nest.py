@@ -80,7 +80,7 @@ def sheets(tmp_path_factory):
     from fabkit.generate.pleated import pleated_vault
     from fabkit.nest import nest_panels, write_sheets
     from fabkit.panels.layout import layout_panels
-    from fabkit.panels.production import MATERIALS
+    from fabkit.panels.production import stock
     from fabkit.panels.surface import GridSurface, grid_from_topology
     from fabkit.panels.workflow import PanelsOptions, run_panels
 
@@ -91,7 +91,7 @@ def sheets(tmp_path_factory):
     run = run_panels(layout, PanelsOptions())
     nest = nest_panels(run, NestOptions(sheet=(1250.0, 1000.0), engine="packingsolver", time_limit=3))
     out = tmp_path_factory.mktemp("sheets")
-    mat = MATERIALS["aluminium-1.5"]
+    mat = stock("5052-H32", 1.5e-3)
     info = write_sheets(run, nest, out / "sheets", mat)
     return run, nest, out, info, mat
 

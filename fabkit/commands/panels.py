@@ -36,7 +36,7 @@ example:
   fabkit generate canopy -o canopy.obj
   fabkit panels canopy.obj -o canopy-panels --rows 14 --cols 7 --jobs 2
   fabkit generate pleated -o pleated.obj
-  fabkit panels pleated.obj -o pleated-run --cols 7 --cell cells/ur5e_bench.toml --material aluminium-1.0
+  fabkit panels pleated.obj -o pleated-run --cols 7 --cell cells/ur5e_bench.toml --material 5052-H32 --thickness 1mm
 """
 
 
@@ -67,7 +67,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     g = p.add_argument_group("production run")
     g.add_argument("--cell", metavar="CELL.toml", help="robot cell: refold, program and check every panel")
-    g.add_argument("--material", default="aluminium-1.0", help="sheet stock (default aluminium-1.0; see docs/production.md)")
+    g.add_argument("--material", default="5052-H32",
+                   help="sheet material from `fabkit materials` or a material .toml (default 5052-H32)")
+    g.add_argument("--thickness", default="1mm", help="sheet thickness with its unit (default 1mm)")
     g.add_argument("--frames", type=int, default=8, help="refold states per panel, flat and folded included (default 8)")
     g.add_argument("--overrides", metavar="FILE.json", help='per-panel options, e.g. {"P003_b00_03": {"frames": 12}}')
     g.add_argument("--sheet", default="2500x1250", metavar="WxH", help="stock sheet size in mm (default 2500x1250)")

@@ -58,7 +58,8 @@ def _overrides(path: str | None) -> dict:
 def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     from fabkit.nest import NestOptions, nest_panels, write_sheets
     from fabkit.panels.output import write_run
-    from fabkit.panels.production import ProductionOptions, material, run_production
+    from fabkit.materials import parse_length
+    from fabkit.panels.production import ProductionOptions, run_production, stock
     from fabkit.panels.production_report import summary
     from fabkit.panels.workflow import PanelsOptions
     from fabkit.report.book import write_book
@@ -70,7 +71,7 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     from robot.cell import load_cell
 
     load_cell(cell_path)  # refuse a bad cell before any work
-    mat = material(args.material)
+    mat = stock(args.material, parse_length(args.thickness, "--thickness"))
     sheet = _parse_sheet(args.sheet)
     if args.frames < 2:
         raise InputError(f"must be >= 2 (flat and folded), got {args.frames}", source="--frames")

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import time
 from concurrent.futures import as_completed
@@ -29,7 +30,7 @@ import numpy as np
 from fabkit.errors import InputError
 from fabkit.io.jsonfile import to_jsonable
 
-__all__ = ["Material", "MATERIALS", "material", "ProductionOptions", "PanelStatus", "ProductionRun",
+__all__ = ["Stock", "stock", "ProductionOptions", "PanelStatus", "ProductionRun",
            "refold_and_program", "run_production", "crease_loss", "geometry_status", "MANIFEST", "STAGES"]
 
 MANIFEST = "manifest.json"
@@ -39,28 +40,28 @@ PROGRAM_SALT = "fabkit.production.program/1"
 
 
 @dataclass(frozen=True)
-class Material:
-    """Sheet stock: name, thickness [m], density [kg/m^3]."""
+class Stock:
+    """The sheet a run cuts: material name, thickness [m] and density [kg/m^3], from the material
+    library (`fabkit.materials`). The run programs the design angles: springback compensation is
+    `fabkit toolpath --material` (docs/sheet.md)."""
 
     name: str
     thickness: float
     density: float
 
 
-#: Stock the run knows by name (densities: AA / MatWeb; thicknesses: the robot-foldable range for
-#: UR-class arms is about 1-1.5 mm of aluminium, docs/production.md).
-MATERIALS = {m.name: m for m in (
-    Material("aluminium-1.0", 1.0e-3, 2680.0),
-    Material("aluminium-1.5", 1.5e-3, 2680.0),
-    Material("aluminium-2.0", 2.0e-3, 2680.0),
-    Material("steel-0.8", 0.8e-3, 7850.0),
-)}
+def stock(material: str = "5052-H32", thickness: float = 1.0e-3) -> Stock:
+    """`Stock` of a library material (name or .toml path) at `thickness` [m]; the rigid `none` has
+    no mass or thickness to cut, so it is refused."""
+    from fabkit.materials import get_material
 
-
-def material(name: str) -> Material:
-    if name not in MATERIALS:
-        raise InputError(f"unknown material {name!r} (known: {', '.join(MATERIALS)})", source="--material")
-    return MATERIALS[name]
+    m = get_material(material)
+    if m.rigid:
+        raise InputError("a production run cuts real sheet: name a material (`fabkit materials` lists them)",
+                         source="--material")
+    if not (math.isfinite(thickness) and 0 < thickness <= 0.02):
+        raise InputError(f"must be in (0, 20 mm], got {thickness * 1e3:g} mm", source="--thickness")
+    return Stock(m.name, float(thickness), float(m.density))
 
 
 @dataclass(frozen=True)
@@ -197,7 +198,7 @@ def refold_and_program(task: dict) -> dict:
     return out
 
 
-def _program_task(panel, result, options: ProductionOptions, cell_toml: str, cell_name: str, mat: Material,
+def _program_task(panel, result, options: ProductionOptions, cell_toml: str, cell_name: str, mat: Stock,
                   program: Callable) -> dict:
     frames = int(options.overrides.get(panel.name, {}).get("frames", options.frames))
     fd = {k: np.asarray(v) for k, v in panel.mesh.face_data.items() if k in ("strip", "column", "middle", "row")}
@@ -300,7 +301,7 @@ def geometry_status(geometry, panel) -> tuple[str, str] | None:
 
 def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name: str, program: Callable,
                    panels_options=None, options: ProductionOptions = ProductionOptions(),
-                   mat: Material = MATERIALS["aluminium-1.0"], jobs: int = 1, scheduler: str | None = None,
+                   mat: Stock | None = None, jobs: int = 1, scheduler: str | None = None,
                    progress: Callable | None = None, timeout: float | None = None,
                    select=None) -> ProductionRun:
     """Run every stage for every panel of `layout` into folder `out` (see the module docstring).
@@ -311,6 +312,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     FOLD, DXF/SVG) are written by the caller (`fabkit.panels.output.write_run`). `select`: panel
     names to take past the unfold (None: all); the others end at stage "refold", "not selected".
     """
+    mat = stock() if mat is None else mat
     from fabkit.panels.cache import ResultCache
     from fabkit.panels.executor import panel_executor, single_threaded
     from fabkit.panels.workflow import PanelsOptions, run_panels
