@@ -180,7 +180,23 @@ def test_resume_one_or_three_waypoints_off_is_refused_before_anything_changes(st
     assert standin.state()["safety_mode"] == "PROTECTIVE_STOP"
     uploads = standin.log_text().count(LOADED)
     q_stop = standin.state()["q"]
-    for n in (last + 2, last + 4):
+    # where the arm stands decides the right N: the resume rule accepts only the move the arm is on
+    # (two where the last blend radius before a waypoint begins the next move), never one past the
+    # waypoint the sender reported
+    from robot.interlock import verify_start
+    from robot.sender import SendError
+
+    st = standin.state()
+    ok = []
+    for n in range(1, len(tp)):
+        try:
+            verify_start(tp.waypoints, n, st["q"], st["tcp_pose"])
+            ok.append(n)
+        except SendError:
+            pass
+    assert ok and len(ok) <= 2 and ok == list(range(ok[0], ok[0] + len(ok))) and last + 1 <= ok[-1], (last, ok)
+    right = ok[-1]
+    for n in (ok[-1] + 1, ok[-1] + 3):  # one and three waypoints past the last acceptable one
         r = subprocess.run([sys.executable, "-m", "fabkit", "send", str(path), "--check", str(check), "--cell",
                             str(CELL), "--host", standin.host, "--resume-from", str(n), "--unlock"], cwd=ROOT,
                            capture_output=True, text=True, timeout=120)
@@ -191,7 +207,7 @@ def test_resume_one_or_three_waypoints_off_is_refused_before_anything_changes(st
         assert standin.log_text().count(LOADED) == uploads, "the refused resume uploaded a control script"
         assert st["q"] == q_stop
     r = subprocess.run([sys.executable, "-m", "fabkit", "send", str(path), "--check", str(check), "--cell", str(CELL),
-                        "--host", standin.host, "--resume-from", str(last + 1), "--unlock"], cwd=ROOT,
+                        "--host", standin.host, "--resume-from", str(right), "--unlock"], cwd=ROOT,
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert np.abs(np.array(standin.state()["q"]) - tp.waypoints[-1].q).max() < 1e-9
