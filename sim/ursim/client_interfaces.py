@@ -162,8 +162,10 @@ def stream_interfaces(ctrl, k: int) -> None:
         return
     rt = [st for st in streams if st.kind == "realtime"]
     state = []
-    if k >= ctrl.next_state_tick:  # due-tick, not k % n: a tick skipped under load must not skip a state
-        ctrl.next_state_tick = k + max(1, int(round(STATE_PERIOD_S / ctrl.period)))
+    if k >= ctrl.next_state_tick:  # due tick, not k % n: a tick skipped under load must not skip a state
+        every = max(1, int(round(STATE_PERIOD_S / ctrl.period)))
+        nxt = ctrl.next_state_tick + every  # on the 100 ms grid, so the rate stays 10 Hz on average
+        ctrl.next_state_tick = nxt if nxt > k else k + every
         state = [st for st in streams if st.kind != "realtime"]
     if not rt and not state:
         return
