@@ -164,8 +164,9 @@ def stream_interfaces(ctrl, k: int) -> None:
     state = []
     if k >= ctrl.next_state_tick:  # due tick, not k % n: a tick skipped under load must not skip a state
         every = max(1, int(round(STATE_PERIOD_S / ctrl.period)))
-        nxt = ctrl.next_state_tick + every  # on the 100 ms grid, so the rate stays 10 Hz on average
-        ctrl.next_state_tick = nxt if nxt > k else k + every
+        late = k - ctrl.next_state_tick  # a few ticks under load: stay on the 100 ms grid (10 Hz on
+        # average); much more (no client for a while): start a new grid
+        ctrl.next_state_tick = ctrl.next_state_tick + every if late < every // 2 else k + every
         state = [st for st in streams if st.kind != "realtime"]
     if not rt and not state:
         return
