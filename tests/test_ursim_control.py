@@ -56,15 +56,25 @@ def test_movej_movel_end_on_target(clients):
     assert ctrl.isSteady()
 
 
+def _soon(cond, timeout: float = 0.5) -> bool:
+    deadline = time.monotonic() + timeout
+    while not cond():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.005)
+    return True
+
+
 def test_movej_ik_movel_fk_and_stops(clients):
     ctrl, recv = clients
     q0 = _q(recv)
     p0 = np.array(recv.getActualTCPPose())
     goal = p0 + np.array([-0.03, 0.04, 0.02, 0, 0, 0])
     assert ctrl.moveJ_IK(goal.tolist(), 1.0, 1.4)  # joint move to the IK solution nearest q0
-    assert np.abs(np.array(recv.getActualTCPPose()) - goal).max() < 1e-9
+    # the receive stream may trail the control stream by a few periods on a loaded machine
+    assert _soon(lambda: np.abs(np.array(recv.getActualTCPPose()) - goal).max() < 1e-9)
     assert ctrl.moveL_FK(q0.tolist(), 0.25, 1.2)  # straight TCP line to FK(q0)
-    assert np.abs(_q(recv) - q0).max() < 1e-6
+    assert _soon(lambda: np.abs(_q(recv) - q0).max() < 1e-6)
     # an asynchronous move stopped with stopJ / stopL decelerates and stays put
     for stop in (lambda: ctrl.stopJ(2.0, False), lambda: ctrl.stopL(5.0, False)):
         assert ctrl.moveJ((q0 + 0.6).tolist(), 0.5, 1.0, True)

@@ -162,8 +162,11 @@ def stream_interfaces(ctrl, k: int) -> None:
         return
     rt = [st for st in streams if st.kind == "realtime"]
     state = []
-    if k >= ctrl.next_state_tick:  # due-tick, not k % n: a tick skipped under load must not skip a state
-        ctrl.next_state_tick = k + max(1, int(round(STATE_PERIOD_S / ctrl.period)))
+    if k >= ctrl.next_state_tick:  # due tick, not k % n: a tick skipped under load must not skip a state
+        every = max(1, int(round(STATE_PERIOD_S / ctrl.period)))
+        late = k - ctrl.next_state_tick  # a few ticks under load: stay on the 100 ms grid (10 Hz on
+        # average); much more (no client for a while): start a new grid
+        ctrl.next_state_tick = ctrl.next_state_tick + every if late < every // 2 else k + every
         state = [st for st in streams if st.kind != "realtime"]
     if not rt and not state:
         return

@@ -24,8 +24,6 @@ from sim.ursim.urscript import ScriptError, URScriptProgram, parse_program
 MAX_SCRIPT = 4 << 20
 #: Longest line of a script (bytes).
 MAX_SCRIPT_LINE = 64 << 10
-_START = re.compile(r"^(def|sec)\s")
-_END = re.compile(r"^end\s*$")
 
 
 def program_from_text(ctrl, text: str, name: str = "<script>"):
@@ -68,56 +66,82 @@ def run_text(ctrl, text: str, port: int) -> None:
 
 
 class ScriptFramer:
-    """Cuts a script stream into programs (or bare statement lines), each byte scanned once.
+    """Cuts a script stream into programs (or bare statement lines). Inside a program the closing
+    `end` is found with `bytes.find` over each new block (no per-line Python work, no rescans), so
+    a multi-megabyte upload costs the stand-in little time under the GIL.
 
-    `feed(data)` returns the complete texts; `error` is set (and nothing more is read) once a line
-    or a program passes its limit."""
+    `feed(data)` returns the complete texts; `error` is set (and nothing more is read) once an
+    unterminated line or a program passes its limit."""
+
+    _END_LINE = re.compile(rb"^end[ \t\r]*$", re.M)
+    _START_LINE = re.compile(rb"(def|sec)\s")
 
     def __init__(self, max_script: int = MAX_SCRIPT, max_line: int = MAX_SCRIPT_LINE):
         self.max_script, self.max_line = max_script, max_line
-        self._line = bytearray()
-        self._program: list[str] = []
+        self._partial = b""
+        self._program: list[bytes] | None = None  # the open program's blocks
         self._size = 0
         self.error: str | None = None
 
     @property
     def pending(self) -> int:
         """Bytes of an unfinished program or line."""
-        return self._size + len(self._line)
+        return self._size + len(self._partial)
 
     def feed(self, data: bytes) -> list[str]:
-        out, start = [], 0
-        while self.error is None:
-            nl = data.find(b"\n", start)
-            if nl < 0:
-                self._line += data[start:start + self.max_line + 1 - len(self._line)]
-                if len(self._line) > self.max_line:
-                    self.error = f"script line over {self.max_line} bytes"
-                break
-            if len(self._line) + nl - start > self.max_line:
-                self.error = f"script line over {self.max_line} bytes"
-                break
-            self._line += data[start:nl + 1]
-            start = nl + 1
-            line = self._line.decode("utf-8", "replace")
-            self._line.clear()
-            self._take(line, out)
+        if self.error:
+            return []
+        buf = self._partial + data
+        cut = buf.rfind(b"\n") + 1  # complete lines: buf[:cut]
+        self._partial = buf[cut:]
+        out: list[str] = []
+        self._take(buf[:cut], out)
+        if self.error is None and len(self._partial) > self.max_line:
+            self.error = f"script line over {self.max_line} bytes"
         return out
 
-    def _take(self, line: str, out: list[str]) -> None:
-        if not self._program:
-            if not line.strip():
-                return
-            if not _START.match(line):
-                out.append(line)  # a bare statement runs as a one-line program
-                return
-        self._program.append(line)
-        self._size += len(line)
+    def _take(self, block: bytes, out: list[str]) -> None:
+        pos = 0
+        while pos < len(block) and self.error is None:
+            if self._program is None:
+                nl = block.index(b"\n", pos) + 1
+                line = block[pos:nl]
+                pos = nl
+                if not line.strip():
+                    continue
+                if self._START_LINE.match(line):
+                    self._program, self._size = [], 0
+                    self._add(line)
+                else:
+                    out.append(line.decode("utf-8", "replace"))  # a bare statement runs as a program
+                continue
+            found = self._end_line(block, pos)
+            end = len(block) if found is None else found
+            self._add(block[pos:end])
+            pos = end
+            if found is not None and self.error is None:
+                out.append(b"".join(self._program).decode("utf-8", "replace"))
+                self._program, self._size = None, 0
+
+    def _end_line(self, block: bytes, pos: int) -> int | None:
+        """The index after the first `end` line at or after line start `pos`, or None (candidates
+        found with bytes.find, at C speed; `block` ends with a newline)."""
+        start = pos
+        while True:
+            if block.startswith(b"end", start):
+                nl = block.index(b"\n", start)
+                if self._END_LINE.match(block, start, nl):
+                    return nl + 1
+            j = block.find(b"\nend", start)
+            if j < 0:
+                return None
+            start = j + 1
+
+    def _add(self, chunk: bytes) -> None:
+        self._program.append(chunk)
+        self._size += len(chunk)
         if self._size > self.max_script:
             self.error = f"program over {self.max_script} bytes"
-        elif _END.match(line):
-            out.append("".join(self._program))
-            self._program, self._size = [], 0
 
 
 def serve_script_text(ctrl, sock: socket.socket, port: int) -> None:

@@ -7,6 +7,7 @@ import threading
 from pathlib import Path
 
 from sim.ursim.admin import serve_admin
+from sim.ursim.clients import MAX_CLIENTS_PER_PORT
 from sim.ursim.controller import Controller, ControllerConfig
 from sim.ursim.dashboard import serve_dashboard
 from sim.ursim.rtde_server import serve_rtde
@@ -21,7 +22,7 @@ def _listen(host: str, port: int) -> socket.socket:
     except OSError as exc:
         s.close()
         raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
-    s.listen(16)
+    s.listen(2 * MAX_CLIENTS_PER_PORT)  # a burst of connects is accepted (or refused) at once, not retried
     return s
 
 
