@@ -45,3 +45,7 @@ def development_problems(dev, max_error: float | None = DEFAULT_MAX_ERROR) -> li
     if not dev.converged:
         problems.append(f"the solver did not converge: {dev.message}")
     return problems
+
+
+#: default largest distance of the last refolded state to the target, relative to the panel size
+DEFAULT_TARGET_RTOL = 1e-6

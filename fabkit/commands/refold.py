@@ -58,8 +58,11 @@ def add_arguments(parser) -> None:
     parser.add_argument("--png", metavar="F.png", help="plot of crease fold angles against the state")
     parser.add_argument("--length-tol", type=float, default=1e-6, metavar="R",
                         help="largest relative edge-length difference TARGET vs FLAT (default 1e-6)")
-    parser.add_argument("--target-tol", type=float, default=1e-6, metavar="R",
-                        help="largest distance of the last state to TARGET, relative to the panel size (default 1e-6)")
+    from fabkit.verdicts import DEFAULT_TARGET_RTOL
+
+    parser.add_argument("--target-tol", type=float, default=DEFAULT_TARGET_RTOL, metavar="R",
+                        help="largest distance of the last state to TARGET, relative to the panel size (default "
+                             f"{DEFAULT_TARGET_RTOL:g})")
     parser.add_argument("--diagonal", choices=("short", "02", "13"), default="short",
                         help="quad diagonal that becomes the J hinge (default: the shorter one in FLAT)")
     parser.add_argument("--solver", choices=("direct", "lsmr", "dense"), default="direct",
