@@ -167,3 +167,26 @@ def test_import_fabkit_is_cheap_and_keeps_the_stage_names():
     assert out.stdout.strip() == "[] True True True"
     source = Path(fabkit.pipeline.__file__).read_text()
     assert not re.search(r"^(from|import) (robot|sim)\b", source, re.MULTILINE)  # only inside plan/check/send
+
+
+@pytest.mark.slow  # the stand-in plays the program in real time (~30 s)
+def test_send_goes_through_the_safety_gate_to_the_stand_in(tmp_path):
+    from _ursim import StandIn
+    from robot.interlock import CheckFailedError
+
+    panel = fabkit.generate("trifold", resolution=6)
+    *_, program, report = _six_lines(panel, tmp_path)
+    failed = dataclasses.replace(report, report=dataclasses.replace(report.report, ok=False), ok=False)
+    with pytest.raises(CheckFailedError):
+        fabkit.send(program, failed, host="127.0.0.1")  # refused before any connection
+    standin = StandIn("--cell", CELL, log=tmp_path / "ursim.log")
+    try:
+        sent = fabkit.send(program, report, host=standin.host, power_on=True)
+        assert sent.ok and sent.problems == (), sent.problems
+        assert sent.result.last_completed == len(program.toolpath) - 1
+        assert sent.result.toolpath_sha256 == program.toolpath.sha256
+        assert json.loads(json.dumps(to_jsonable(sent.to_json())))["ok"] is True
+        final = standin.state()["q"]
+        assert max(abs(a - b) for a, b in zip(final, program.toolpath.waypoints[-1]["q"])) < 1e-6
+    finally:
+        standin.stop()
