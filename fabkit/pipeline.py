@@ -154,8 +154,9 @@ def _workdir(workdir) -> Path:
 
         return Path(tempfile.mkdtemp(prefix="fabkit-"))
     path = Path(workdir)
-    if not path.is_dir():
-        raise InputError("working folder does not exist", source=str(path))
+    if path.exists() and not path.is_dir():
+        raise InputError("the working folder is a file", source=str(path))
+    path.mkdir(parents=True, exist_ok=True)
     return path
 
 
@@ -164,8 +165,8 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
          tool_yaw: float | None = None, fold_speed: float | None = None,
          max_joint_step: float | None = None) -> Program:
     """A UR toolpath for `folds` in the cell file `cell` (`fabkit toolpath`). Writes the fold
-    states (`fold.fold`) and the toolpath (`path.json`) into `workdir` (default: a new temporary
-    folder) and plans from the FOLD file as written, recording its sha256. Options as `fabkit
+    states (`fold.fold`) and the toolpath (`path.json`) into `workdir` (made if missing; default: a
+    new temporary folder) and plans from the FOLD file as written, recording its sha256. Options as `fabkit
     toolpath` (metres, m/s; `tool_yaw`, `max_joint_step` in degrees); None: the planner's defaults.
     Not ok (no path.json) when the path is unreachable, singular or discontinuous."""
     import hashlib

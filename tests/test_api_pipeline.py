@@ -190,3 +190,21 @@ def test_send_goes_through_the_safety_gate_to_the_stand_in(tmp_path):
         assert max(abs(a - b) for a, b in zip(final, program.toolpath.waypoints[-1]["q"])) < 1e-6
     finally:
         standin.stop()
+
+
+def test_the_script_in_docs_api_runs_as_written(tmp_path, monkeypatch):
+    """The first python block of docs/api.md, run in a folder holding panel.obj (plain, mm) and
+    cells/; its CHECK report is the one `fabkit check` writes for its PATH.json."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "api.md").read_text()
+    script = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    assert len([ln for ln in script.splitlines() if ln.strip() and not ln.startswith("import")]) == 6
+    plain = _plain_mm_obj(tmp_path)
+    assert plain == tmp_path / "panel.obj"
+    (tmp_path / "cells").symlink_to(Path(CELL).parent)
+    monkeypatch.chdir(tmp_path)
+    scope: dict = {}
+    exec(compile(script, "docs/api.md", "exec"), scope)
+    report, program = scope["report"], scope["program"]
+    assert report.ok, report.problems
+    assert program.workdir == Path("out") and report.check_file == Path("out") / "check.json"
+    _assert_check_equals_cli(report, program, tmp_path)
