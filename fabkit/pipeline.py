@@ -130,7 +130,8 @@ def refold(flat: Flat, target: Panel | Relaxed | None = None, *, frames: int = 2
     length_tol = DEFAULT_LENGTH_RTOL if length_tol is None else length_tol
     try:
         rs = RefoldSolver(flat.mesh, target_mesh, fixed_face=fixed_face, diagonal=diagonal, length_rtol=length_tol,
-                          solver=solver, flat_name="FLAT", target_name="TARGET")
+                          solver=solver, flat_name=f"the flat pattern of {flat.name}",
+                          target_name=flat.name if target is None else target.name)
     except NotAFoldError as exc:
         return Folds(sequence=None, model=None, name=flat.name, target_tol=target_tol, ok=False,
                      problems=(str(exc),), details={"worst_edge": list(exc.edge),

@@ -9,6 +9,21 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: importing a result type loads no numpy, robot or sim
+    from fabkit.cutfiles.creases import CreaseAssignment
+    from fabkit.fold import FoldModel
+    from fabkit.io.load import LoadInfo
+    from fabkit.mesh import PolyMesh
+    from fabkit.refold.sequence import FoldSequence
+    from fabkit.relax.options import RelaxResult
+    from fabkit.unfold.development import Development
+    from robot.cell import Cell
+    from robot.planner import PlanResult
+    from robot.sender import SendResult
+    from robot.toolpath import Toolpath
+    from sim.check import CheckReport
 
 
 def _jsonable(data: dict) -> dict:
@@ -23,9 +38,9 @@ class Panel:
     file name or `preset NAME`), `loaded` (`fabkit.io.load.LoadInfo`, None for a preset: units,
     welds, notes), `params` (a preset's parameters, defaults filled in)."""
 
-    mesh: object
+    mesh: PolyMesh
     name: str
-    loaded: object = None
+    loaded: LoadInfo | None = None
     params: dict = field(default_factory=dict)
     ok: bool = True
     problems: tuple[str, ...] = ()
@@ -49,9 +64,9 @@ class Relaxed:
     `result` the solver's `fabkit.relax.RelaxResult`, `input` the `Panel` relaxed, `max_move`
     the share of the panel size a vertex may move."""
 
-    mesh: object
-    result: object
-    input: Panel
+    mesh: PolyMesh
+    result: RelaxResult
+    input: Panel | Relaxed
     max_move: float
     ok: bool
     problems: tuple[str, ...]
@@ -60,6 +75,11 @@ class Relaxed:
     def name(self) -> str:
         return self.input.name
 
+    @property
+    def loaded(self) -> LoadInfo | None:
+        """How the first panel of the chain was read (None for a preset)."""
+        return self.input.loaded
+
     def to_json(self) -> dict:
         """The report `fabkit relax --report` writes (without the file names)."""
         r, size = self.result, self.input.mesh.size
@@ -67,7 +87,7 @@ class Relaxed:
                           "input_summary": {"vertices": self.input.mesh.n_vertices, "faces": self.input.mesh.n_faces,
                                             "interior_vertices": int(self.input.mesh.interior_vertex_mask.sum())},
                           **r.to_report(), "unit": "m",
-                          "loaded": None if self.input.loaded is None else self.input.loaded.to_report(),
+                          "loaded": None if self.loaded is None else self.loaded.to_report(),
                           "max_move": {"share": self.max_move, "limit_m": self.max_move * size,
                                        "moved_m": r.max_displacement,
                                        "ok": r.max_displacement <= self.max_move * size}})
@@ -79,10 +99,10 @@ class Flat:
     `folded` the panel it unfolds (the refold target), `development` (`fabkit.unfold.Development`:
     uv, length deviations), `creases` (`fabkit.cutfiles.CreaseAssignment`: M/V/U per edge)."""
 
-    mesh: object
-    folded: object
-    development: object
-    creases: object
+    mesh: PolyMesh
+    folded: PolyMesh
+    development: Development
+    creases: CreaseAssignment
     name: str
     max_error: float | None
     ok: bool
@@ -103,8 +123,8 @@ class Folds:
     its diagnostics; None when the target is not a fold of the flat pattern), `model` the FOLD
     animation (`fabkit.fold.FoldModel`, what `fabkit refold -o SEQ.fold` writes), `target_tol`."""
 
-    sequence: object
-    model: object
+    sequence: FoldSequence | None
+    model: FoldModel | None
     name: str
     target_tol: float
     ok: bool
@@ -140,13 +160,13 @@ class Program:
     files it was planned from and written to (`fold_file`, `path_file` in `workdir`), the `cell`
     (`robot.cell.Cell`) and `cell_file`, and the planner's `plan` (`robot.planner.PlanResult`)."""
 
-    toolpath: object
+    toolpath: Toolpath | None
     workdir: Path
     fold_file: Path
     path_file: Path | None
-    cell: object
+    cell: Cell
     cell_file: Path
-    plan: object
+    plan: PlanResult | None
     ok: bool
     problems: tuple[str, ...]
     details: dict = field(default_factory=dict)
@@ -179,7 +199,7 @@ class Checked:
     """`fabkit.check()`: `report` (`sim.check.CheckReport`), written as `check_file`; `to_json()`
     is CHECK.json (`fabkit.check/2`), the very report `fabkit check` writes for the same PATH.json."""
 
-    report: object
+    report: CheckReport
     program: Program
     check_file: Path
     ok: bool
@@ -194,7 +214,7 @@ class Sent:
     """`fabkit.send()`: `result` (`robot.sender.SendResult`: last completed waypoint, reason,
     final pose error); `ok` when every waypoint was reached."""
 
-    result: object
+    result: SendResult
     host: str
     ok: bool
     problems: tuple[str, ...]
