@@ -34,7 +34,7 @@ from pathlib import Path
 
 from fabkit.errors import InputError
 from fabkit.results import Checked, Flat, Folds, Panel, Program, Relaxed, Sent
-from fabkit.verdicts import DEFAULT_MAX_ERROR, DEFAULT_MAX_MOVE, DEFAULT_TARGET_RTOL
+from fabkit.verdicts import DEFAULT_MAX_ERROR, DEFAULT_MAX_MOVE, DEFAULT_TARGET_RTOL, MAX_REFOLD_FRAMES
 
 __all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "send",
            "Panel", "Relaxed", "Flat", "Folds", "Program", "Checked", "Sent"]
@@ -125,8 +125,9 @@ def refold(flat: Flat, target: Panel | Relaxed | None = None, *, frames: int = 2
     target_mesh = flat.folded if target is None else target.mesh
     if target is not None:
         _require_ok(target, "refold")
-    if not 2 <= frames <= 10_000:
-        raise InputError(f"must be in 2..10000 (flat and target included), got {frames}", source="frames")
+    if not 2 <= frames <= MAX_REFOLD_FRAMES:
+        raise InputError(f"must be in 2..{MAX_REFOLD_FRAMES} (flat and target included), got {frames}",
+                         source="frames")
     length_tol = DEFAULT_LENGTH_RTOL if length_tol is None else length_tol
     try:
         rs = RefoldSolver(flat.mesh, target_mesh, fixed_face=fixed_face, diagonal=diagonal, length_rtol=length_tol,

@@ -1,4 +1,5 @@
-"""The verdicts of the relax and unfold stages and their default tolerances, in one light module.
+"""The verdicts of the relax and unfold stages, and the default tolerances and limits the CLI and
+the API share, in one light module.
 
 `fabkit relax` / `fabkit unfold` and `fabkit.relax()` / `fabkit.unfold()` take their verdicts from
 here, so the CLI and the API say the same thing with the same tolerances. The messages name the
@@ -49,3 +50,6 @@ def development_problems(dev, max_error: float | None = DEFAULT_MAX_ERROR) -> li
 
 #: default largest distance of the last refolded state to the target, relative to the panel size
 DEFAULT_TARGET_RTOL = 1e-6
+
+#: most states per folding step: far more than a robot program needs, small enough to fit in memory
+MAX_REFOLD_FRAMES = 10_000
