@@ -36,7 +36,7 @@ from fabkit.errors import InputError
 from fabkit.results import Checked, Flat, Folds, Panel, Program, Relaxed, Sent
 from fabkit.verdicts import DEFAULT_MAX_ERROR, DEFAULT_MAX_MOVE, DEFAULT_TARGET_RTOL, MAX_REFOLD_FRAMES
 
-__all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "send",
+__all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "send", "fold_source",
            "Panel", "Relaxed", "Flat", "Folds", "Program", "Checked", "Sent"]
 
 #: file names in the working folder (those of `fabkit demo`)
@@ -162,19 +162,28 @@ def _workdir(workdir) -> Path:
     return path
 
 
+def fold_source(fold_file: str | os.PathLike, states: int) -> dict:
+    """The provenance a toolpath records of the FOLD file it is planned from: its name (resolved
+    against the PATH.json's folder when checked), sha256 and number of fold states."""
+    import hashlib
+
+    path = Path(fold_file)
+    return {"file": path.name, "sha256": hashlib.sha256(path.read_bytes()).hexdigest(), "states": int(states)}
+
+
 def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | None = None,
          grip_face: int | None = None, approach: float | None = None, standoff: float | None = None,
          tool_yaw: float | None = None, fold_speed: float | None = None,
          max_joint_step: float | None = None) -> Program:
     """A UR toolpath for `folds` in the cell file `cell` (`fabkit toolpath`). Writes the fold
-    states (`fold.fold`) and the toolpath (`path.json`) into `workdir` (made if missing; default: a
-    new temporary folder) and plans from the FOLD file as written, recording its sha256. Options as `fabkit
-    toolpath` (metres, m/s; `tool_yaw`, `max_joint_step` in degrees); None: the planner's defaults.
+    states (`fold.fold`) and the toolpath (`path.json`) into `workdir` (made if missing; default:
+    a new temporary folder) and plans from the FOLD file as written, recording its sha256. Options
+    as `fabkit toolpath` (metres, m/s; `tool_yaw`, `max_joint_step` in degrees); None: the
+    planner's defaults.
     Not ok (no path.json) when the path is unreachable, singular or discontinuous."""
-    import hashlib
     from dataclasses import replace
 
-    from fabkit.frames import check_grip_face_moves, face_frames_of, middle_row_frames
+    from fabkit.frames import planning_frames
     from fabkit.io.load import load_fold_model
     from robot.cell import load_cell
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
@@ -186,12 +195,7 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     fold_file = folds.save(folder / FOLD_NAME)
     model, _ = load_fold_model(fold_file)
     check_fold_coordinates(model, source=str(fold_file))
-    if grip_face is not None and "middle" not in model.faces_data:
-        frames = face_frames_of(model, grip_face, source=str(fold_file))
-    else:
-        frames = middle_row_frames(model, source=str(fold_file))
-    if grip_face is not None and grip_face in frames.faces.tolist():
-        check_grip_face_moves(frames, grip_face, clamped=model.file_data.get("fabkit:fixed_face"))
+    frames = planning_frames(model, grip_face, source=str(fold_file))
     options = PlanOptions()
     given = {"approach_distance": approach, "grip_standoff": standoff,
              "tool_yaw": None if tool_yaw is None else math.radians(tool_yaw),
@@ -199,8 +203,7 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     options = replace(options, **{k: v for k, v in given.items() if v is not None})
     if fold_speed is not None:
         options = replace(options, params=replace(options.params, fold_speed=fold_speed))
-    source = {"file": fold_file.name, "sha256": hashlib.sha256(fold_file.read_bytes()).hexdigest(),
-              "states": int(frames.n_states)}
+    source = fold_source(fold_file, frames.n_states)
     common = dict(workdir=folder, fold_file=fold_file, cell=cell_obj, cell_file=Path(cell),
                   details={"states": int(frames.n_states), "middle_row": frames.faces.tolist()})
     try:

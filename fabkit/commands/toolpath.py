@@ -1,7 +1,6 @@
 """fabkit toolpath: fold states -> TCP poses, joint solutions, motion parameters, URScript."""
 from __future__ import annotations
 
-import hashlib
 import math
 import sys
 from pathlib import Path
@@ -102,7 +101,8 @@ def _check_args(args) -> None:
 def run(args) -> int:
     from dataclasses import replace
 
-    from fabkit.frames import check_grip_face_moves, face_frames_of, middle_row_frames
+    from fabkit.frames import planning_frames
+    from fabkit.pipeline import fold_source
     from fabkit.io.atomic import atomic_write
     from fabkit.commands._loading import load_fold_for
     from robot.cell import load_cell
@@ -128,14 +128,8 @@ def run(args) -> int:
         compensated = compensate_sequence(model, spec, source=args.fold)
         model = compensated.model
     # ---- end of sheet hook ----
-    if args.grip_face is not None and "middle" not in model.faces_data:
-        frames = face_frames_of(model, args.grip_face, source=args.fold)  # untagged file: the face given
-    else:
-        frames = middle_row_frames(model, source=args.fold)
-    if args.grip_face is not None and args.grip_face in frames.faces.tolist():
-        check_grip_face_moves(frames, args.grip_face, clamped=model.file_data.get("fabkit:fixed_face"))
-    digest = hashlib.sha256(Path(args.fold).read_bytes()).hexdigest()
-    source = {"file": Path(args.fold).name, "sha256": digest, "states": int(frames.n_states)}
+    frames = planning_frames(model, args.grip_face, source=args.fold)
+    source = fold_source(args.fold, frames.n_states)
     options = PlanOptions(approach_distance=args.approach, grip_standoff=args.standoff,
                           tool_yaw=None if args.tool_yaw is None else math.radians(args.tool_yaw),
                           max_joint_step=math.radians(args.max_joint_step),
