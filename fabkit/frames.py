@@ -281,11 +281,12 @@ def face_frames_of(model, face_id: int, source: str | None = None) -> FaceFrames
 
 def planning_frames(model, grip_face: int | None = None, source: str | None = None) -> FaceFrames:
     """The face frames a toolpath is planned on: for a file without middle-row tags and a given
-    `grip_face`, that face's own frames; else the middle row's (tagged or inferred), where a given
-    grip face must move (not the clamped face)."""
+    `grip_face`, that face's own frames; else the middle row's (tagged or inferred). A given grip
+    face must move (not the clamped face): `InputError` otherwise."""
     if grip_face is not None and "middle" not in model.faces_data:
-        return face_frames_of(model, grip_face, source=source)
-    frames = middle_row_frames(model, source=source)
+        frames = face_frames_of(model, grip_face, source=source)
+    else:
+        frames = middle_row_frames(model, source=source)
     if grip_face is not None and grip_face in frames.faces.tolist():
         check_grip_face_moves(frames, grip_face, clamped=model.file_data.get("fabkit:fixed_face"))
     return frames
