@@ -238,9 +238,13 @@ def send(program: Program, report: Checked, *, host: str, power_on: bool = False
     very toolpath, cell file and FOLD file, and runs the check again on what it sends. Refusals
     raise (`robot.interlock.CheckFailedError` for a failed check, `InterlockError`, `SendError`);
     once the controller was contacted the result says how far it got (`Sent.result.last_completed`)."""
+    from robot.send_options import send_option_problem
     from robot.sender import SendSettings, send_toolpath
 
     _require_ok(program, "send")
+    problem = send_option_problem(host, chunk, stall)
+    if problem is not None:
+        raise InputError(problem[1], source=problem[0])
     settings = SendSettings(host=host, chunk=chunk, resume_from=resume_from, power_on=power_on, unlock=unlock,
                             stall_s=stall)
     result = send_toolpath(program.toolpath, report.report, program.cell, settings, base_dir=program.workdir,

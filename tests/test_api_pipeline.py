@@ -179,6 +179,10 @@ def test_send_goes_through_the_safety_gate_to_the_stand_in(tmp_path):
     failed = dataclasses.replace(report, report=dataclasses.replace(report.report, ok=False), ok=False)
     with pytest.raises(CheckFailedError):
         fabkit.send(program, failed, host="127.0.0.1")  # refused before any connection
+    with pytest.raises(fabkit.InputError, match=r"seconds in \(0, 5\]"):
+        fabkit.send(program, report, host="127.0.0.1", stall=60)  # a stall limit that blunts the watchdog
+    with pytest.raises(fabkit.InputError, match="not an IP address or host name"):
+        fabkit.send(program, report, host="-robot-")
     standin = StandIn("--cell", CELL, log=tmp_path / "ursim.log")
     try:
         sent = fabkit.send(program, report, host=standin.host, power_on=True)
