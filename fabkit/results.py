@@ -154,6 +154,18 @@ class Folds:
         return _jsonable(out)
 
 
+def plan_report(plan: PlanResult, toolpath: Toolpath) -> dict:
+    """What the planner measured, for the toolpath report (`fabkit toolpath --report`,
+    `Program.to_json()`); `toolpath` is the one written (the planned one, or with the sheet record)."""
+    import math
+
+    return {"toolpath_sha256": toolpath.sha256, "waypoints": len(toolpath), "grip_face": plan.grip_face,
+            "branch": plan.branch, "cycle_time_s": plan.cycle_time,
+            "max_fold_joint_step_deg": math.degrees(toolpath.extra["checks"]["max_fold_joint_step_rad"]),
+            "joint_speed_ratio": plan.joint_speed_ratio, "min_singularity": plan.min_singularity,
+            "faces_tried": [{"face": f, "problem": str(e)} for f, e in plan.tried]}
+
+
 @dataclass(frozen=True, eq=False)
 class Program:
     """`fabkit.plan()`: `toolpath` (`robot.toolpath.Toolpath`, None when planning failed), the
@@ -183,14 +195,7 @@ class Program:
         out = {"command": "toolpath", "input": str(self.fold_file), "cell": self.cell.name,
                "robot": self.cell.model.name, "ok": self.ok, "problems": list(self.problems), **self.details}
         if self.plan is not None:
-            import math
-
-            res, tp = self.plan, self.toolpath
-            out.update({"output": str(self.path_file), "toolpath_sha256": tp.sha256, "waypoints": len(tp),
-                        "grip_face": res.grip_face, "branch": res.branch, "cycle_time_s": res.cycle_time,
-                        "max_fold_joint_step_deg": math.degrees(tp.extra["checks"]["max_fold_joint_step_rad"]),
-                        "joint_speed_ratio": res.joint_speed_ratio, "min_singularity": res.min_singularity,
-                        "faces_tried": [{"face": f, "problem": str(e)} for f, e in res.tried]})
+            out.update({"output": str(self.path_file), **plan_report(self.plan, self.toolpath)})
         return _jsonable(out)
 
 

@@ -69,6 +69,14 @@ def test_six_lines_on_the_trifold_give_the_check_report_of_fabkit_check(tmp_path
     assert cli["ok"] and cli["waypoints"] == len(program.toolpath) and cli["configs_checked"] > len(program.toolpath)
     assert cli["fold"]["path"] == str(program.fold_file)
     assert program.fold_file == tmp_path / "fold.fold" and program.path_file == tmp_path / "path.json"
+    # the toolpath report: the numbers `fabkit toolpath --report` writes for the same FOLD file
+    assert _cli("toolpath", program.fold_file, "--cell", CELL, "-o", tmp_path / "p2.json",
+                "--report", tmp_path / "tp.json", "-q") == 0
+    cli_tp = json.loads((tmp_path / "tp.json").read_text())
+    ours = json.loads(json.dumps(program.to_json()))
+    for key in ("toolpath_sha256", "waypoints", "grip_face", "branch", "cycle_time_s", "max_fold_joint_step_deg",
+                "joint_speed_ratio", "min_singularity", "faces_tried", "states", "middle_row", "ok", "problems"):
+        assert ours[key] == cli_tp[key], key
 
 
 def test_six_lines_on_a_plain_millimetre_obj(tmp_path):

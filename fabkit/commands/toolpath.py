@@ -103,6 +103,7 @@ def run(args) -> int:
 
     from fabkit.frames import planning_frames
     from fabkit.pipeline import fold_source
+    from fabkit.results import plan_report
     from fabkit.io.atomic import atomic_write
     from fabkit.commands._loading import load_fold_for
     from robot.cell import load_cell
@@ -161,11 +162,7 @@ def run(args) -> int:
         with atomic_write(args.script) as fh:
             fh.write(script)
     checks = tp.extra["checks"]
-    report.update({"ok": True, "output": args.output, "script": args.script, "toolpath_sha256": tp.sha256,
-                   "waypoints": len(tp), "grip_face": res.grip_face, "branch": res.branch,
-                   "cycle_time_s": res.cycle_time, "max_fold_joint_step_deg": math.degrees(checks["max_fold_joint_step_rad"]),
-                   "joint_speed_ratio": res.joint_speed_ratio, "min_singularity": res.min_singularity,
-                   "faces_tried": [{"face": f, "problem": str(e)} for f, e in res.tried], "problems": []})
+    report.update({"ok": True, "output": args.output, "script": args.script, **plan_report(res, tp), "problems": []})
     write_report(args, report)
     say(args, f"{args.output}: {len(tp)} waypoints for {cell.model.name} in {cell.name}, grip face {res.grip_face} "
               f"({res.branch}), cycle time ~{res.cycle_time:.1f} s, largest fold step "
