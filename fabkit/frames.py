@@ -277,3 +277,16 @@ def face_frames_of(model, face_id: int, source: str | None = None) -> FaceFrames
                          source=source) from None
     frames = row_frames(groups, fold_positions(model), [g])
     return FaceFrames(faces=groups.ids[[g]], strips=groups.strip[[g]], frames=frames)
+
+
+def planning_frames(model, grip_face: int | None = None, source: str | None = None) -> FaceFrames:
+    """The face frames a toolpath is planned on: for a file without middle-row tags and a given
+    `grip_face`, that face's own frames; else the middle row's (tagged or inferred). A given grip
+    face must move (not the clamped face): `InputError` otherwise."""
+    if grip_face is not None and "middle" not in model.faces_data:
+        frames = face_frames_of(model, grip_face, source=source)
+    else:
+        frames = middle_row_frames(model, source=source)
+    if grip_face is not None and grip_face in frames.faces.tolist():
+        check_grip_face_moves(frames, grip_face, clamped=model.file_data.get("fabkit:fixed_face"))
+    return frames

@@ -105,7 +105,7 @@ def test_second_order_corrections_count_is_an_option(corrections):
 @pytest.mark.parametrize("method,expected", [("dr", 4), ("lbfgs", 4), ("newton", 1)])
 def test_more_corrections_only_for_the_finish_after_dr_or_lbfgs(monkeypatch, method, expected):
     """From the raw input more corrections drifted (measured 9.6σ at ~10,000 vertices): only the finish."""
-    import fabkit.relax.solver as solver_module
+    from fabkit.relax import solver as solver_module
     seen = []
     real = solver_module.gauss_newton
 

@@ -126,12 +126,12 @@ def test_bad_arguments_exit_2(tmp_path, panel, capsys):
 
 
 def test_a_failing_writer_leaves_no_output_behind(tmp_path, panel, monkeypatch, capsys):
-    import fabkit.unfold.plot
+    from fabkit.unfold import plot as unfold_plot
 
     def broken(*args, **kwargs):
         raise RuntimeError("disk on fire")
 
-    monkeypatch.setattr(fabkit.unfold.plot, "plot_unfold_error", broken)
+    monkeypatch.setattr(unfold_plot, "plot_unfold_error", broken)
     rc = main(["unfold", str(panel), "-o", str(tmp_path / "f.obj"), "--dxf", str(tmp_path / "f.dxf"),
                "--svg", str(tmp_path / "f.svg"), "--png", str(tmp_path / "f.png"), "--report", str(tmp_path / "r.json")])
     assert rc == 3 and "disk on fire" in capsys.readouterr().err

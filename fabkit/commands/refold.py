@@ -9,6 +9,8 @@ from pathlib import Path
 
 from fabkit.commands._common import add_common, progress, say, to_jsonable
 from fabkit.commands._loading import add_units, load_panel_for
+from fabkit.verdicts import DEFAULT_TARGET_RTOL
+from fabkit.verdicts import MAX_REFOLD_FRAMES as MAX_FRAMES  # most states per folding step
 
 HELP = """Fold states a robot walks the sheet through, from the flat pattern to the target (paper §3.6).
 
@@ -58,18 +60,15 @@ def add_arguments(parser) -> None:
     parser.add_argument("--png", metavar="F.png", help="plot of crease fold angles against the state")
     parser.add_argument("--length-tol", type=float, default=1e-6, metavar="R",
                         help="largest relative edge-length difference TARGET vs FLAT (default 1e-6)")
-    parser.add_argument("--target-tol", type=float, default=1e-6, metavar="R",
-                        help="largest distance of the last state to TARGET, relative to the panel size (default 1e-6)")
+    parser.add_argument("--target-tol", type=float, default=DEFAULT_TARGET_RTOL, metavar="R",
+                        help="largest distance of the last state to TARGET, relative to the panel size (default "
+                             f"{DEFAULT_TARGET_RTOL:g})")
     parser.add_argument("--diagonal", choices=("short", "02", "13"), default="short",
                         help="quad diagonal that becomes the J hinge (default: the shorter one in FLAT)")
     parser.add_argument("--solver", choices=("direct", "lsmr", "dense"), default="direct",
                         help="minimum-norm linear solver: sparse factorisation (default), LSMR, dense pinv")
     parser.add_argument("--no-intersections", action="store_true", help="skip the face interpenetration check")
     add_common(parser)
-
-
-#: most states per folding step: far more than a robot program needs, small enough to fit in memory
-MAX_FRAMES = 10_000
 
 
 def plan_files(args, plan) -> None:

@@ -8,8 +8,7 @@ from fabkit.commands._common import add_common, progress, say, write_report
 from fabkit.commands._loading import add_units, load_panel_for
 from fabkit.errors import InputError
 
-#: --max-move default: share of the panel size (bounding-box diagonal) a vertex may move
-DEFAULT_MAX_MOVE = 0.05
+from fabkit.verdicts import DEFAULT_MAX_MOVE, moved_too_far, relax_problems
 
 HELP = """Relax a quad mesh toward a developable, planar-quad panel (paper §2.2-2.7): zero angle defect
 (2π − Σθ) at every interior vertex and every face vertex on its face's best-fit plane.
@@ -169,8 +168,8 @@ def run(args) -> int:
         result = solver.solve()
         advance(1)
     limit = args.max_move * mesh.size
-    moved_too_far = result.max_displacement > limit
-    ok = result.converged and not moved_too_far
+    problems = relax_problems(result, mesh.size, args.max_move)
+    ok = not problems
     written = ok or args.write_unconverged
     if written:
         save_panel(result.mesh, args.output)
@@ -183,7 +182,7 @@ def run(args) -> int:
         "unit": "m",
         "loaded": loaded.to_report(),
         "max_move": {"share": args.max_move, "limit_m": limit, "moved_m": result.max_displacement,
-                     "ok": not moved_too_far},
+                     "ok": not moved_too_far(result, mesh.size, args.max_move)},
     }
     report["options"] = dataclasses.asdict(options)
     write_report(args, report)
@@ -197,11 +196,6 @@ def run(args) -> int:
     import sys
 
     note = "" if written else "; no output written (--write-unconverged keeps it)"
-    if moved_too_far:
-        message = (f"a vertex moved {result.max_displacement * 1e3:.4g} mm, more than --max-move {args.max_move:g} "
-                   f"x the panel size {mesh.size:.4g} m = {limit * 1e3:.4g} mm: the relaxed panel is another shape "
-                   f"({'converged' if result.converged else result.message})")
-    else:
-        message = result.message
+    message = problems[0]
     print(f"fabkit relax: {args.input}: {message}{note}", file=sys.stderr)
     return 1

@@ -3,9 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-import math
 import os
-import re
 import signal
 import sys
 
@@ -55,24 +53,6 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
-#: longest --stall: a frozen controller must be noticed within seconds, never switched off
-MAX_STALL_S = 5.0
-
-_HOST_LABEL = re.compile(r"^(?!-)[A-Za-z0-9-]{1,63}(?<!-)$")
-
-
-def _is_host(text: str) -> bool:
-    """An IPv4/IPv6 address or an RFC 1123 host name."""
-    import ipaddress
-
-    try:
-        ipaddress.ip_address(text)
-        return True
-    except ValueError:
-        pass
-    return len(text) <= 253 and all(_HOST_LABEL.match(label) for label in text.rstrip(".").split("."))
-
-
 def plan_files(args, plan) -> None:
     plan.input(args.toolpath, "PATH.json")
     plan.input(args.check, "--check")
@@ -91,17 +71,13 @@ def _load_check(path: str) -> dict:
 def run(args) -> int:
     from robot.cell import load_cell
     from robot.interlock import CheckFailedError, InterlockError
+    from robot.send_options import send_option_problem
     from robot.sender import SendError, SendSettings, send_toolpath
     from robot.toolpath import Toolpath
 
-    if not args.host:
-        raise InputError("no controller address: give --host or set FABKIT_UR_HOST", source="--host")
-    if args.chunk < 2:
-        raise InputError("a chunk needs at least 2 waypoints", source="--chunk")
-    if not (math.isfinite(args.stall) and 0 < args.stall <= MAX_STALL_S):
-        raise InputError(f"must be a number of seconds in (0, {MAX_STALL_S:g}], got {args.stall}", source="--stall")
-    if not _is_host(args.host):
-        raise InputError(f"{args.host!r} is not an IP address or host name", source="--host")
+    problem = send_option_problem(args.host, args.chunk, args.stall)
+    if problem is not None:
+        raise InputError(problem[1], source=f"--{problem[0]}")
     tp = Toolpath.load(args.toolpath)
     cell = load_cell(args.cell)
     check = _load_check(args.check)

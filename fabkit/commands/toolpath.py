@@ -1,7 +1,6 @@
 """fabkit toolpath: fold states -> TCP poses, joint solutions, motion parameters, URScript."""
 from __future__ import annotations
 
-import hashlib
 import math
 import sys
 from pathlib import Path
@@ -102,7 +101,9 @@ def _check_args(args) -> None:
 def run(args) -> int:
     from dataclasses import replace
 
-    from fabkit.frames import check_grip_face_moves, face_frames_of, middle_row_frames
+    from fabkit.frames import planning_frames
+    from fabkit.pipeline import fold_source
+    from fabkit.results import plan_report
     from fabkit.io.atomic import atomic_write
     from fabkit.commands._loading import load_fold_for
     from robot.cell import load_cell
@@ -128,14 +129,8 @@ def run(args) -> int:
         compensated = compensate_sequence(model, spec, source=args.fold)
         model = compensated.model
     # ---- end of sheet hook ----
-    if args.grip_face is not None and "middle" not in model.faces_data:
-        frames = face_frames_of(model, args.grip_face, source=args.fold)  # untagged file: the face given
-    else:
-        frames = middle_row_frames(model, source=args.fold)
-    if args.grip_face is not None and args.grip_face in frames.faces.tolist():
-        check_grip_face_moves(frames, args.grip_face, clamped=model.file_data.get("fabkit:fixed_face"))
-    digest = hashlib.sha256(Path(args.fold).read_bytes()).hexdigest()
-    source = {"file": Path(args.fold).name, "sha256": digest, "states": int(frames.n_states)}
+    frames = planning_frames(model, args.grip_face, source=args.fold)
+    source = fold_source(args.fold, frames.n_states)
     options = PlanOptions(approach_distance=args.approach, grip_standoff=args.standoff,
                           tool_yaw=None if args.tool_yaw is None else math.radians(args.tool_yaw),
                           max_joint_step=math.radians(args.max_joint_step),
@@ -167,11 +162,7 @@ def run(args) -> int:
         with atomic_write(args.script) as fh:
             fh.write(script)
     checks = tp.extra["checks"]
-    report.update({"ok": True, "output": args.output, "script": args.script, "toolpath_sha256": tp.sha256,
-                   "waypoints": len(tp), "grip_face": res.grip_face, "branch": res.branch,
-                   "cycle_time_s": res.cycle_time, "max_fold_joint_step_deg": math.degrees(checks["max_fold_joint_step_rad"]),
-                   "joint_speed_ratio": res.joint_speed_ratio, "min_singularity": res.min_singularity,
-                   "faces_tried": [{"face": f, "problem": str(e)} for f, e in res.tried], "problems": []})
+    report.update({"ok": True, "output": args.output, "script": args.script, **plan_report(res, tp), "problems": []})
     write_report(args, report)
     say(args, f"{args.output}: {len(tp)} waypoints for {cell.model.name} in {cell.name}, grip face {res.grip_face} "
               f"({res.branch}), cycle time ~{res.cycle_time:.1f} s, largest fold step "

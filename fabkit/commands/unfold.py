@@ -9,8 +9,7 @@ from pathlib import Path
 from fabkit.commands._common import add_common, progress, say, to_jsonable
 from fabkit.commands._loading import add_units, load_panel_for
 
-#: --max-error default: relative edge/diagonal length deviation (0.1 %: 0.6 mm on a 600 mm panel)
-DEFAULT_MAX_ERROR = 1e-3
+from fabkit.verdicts import DEFAULT_MAX_ERROR, development_problems
 
 HELP = """Unfold a panel into its flat pattern (paper §2.8, §3.3) and write cut files.
 
@@ -160,16 +159,7 @@ def run(args) -> int:
     pattern = cut_pattern(mesh, dev.uv, assignment, panel_id, label_edges=args.label_edges) \
         if (args.dxf or args.svg) else None
 
-    problems = []
-    if args.max_error is not None and dev.max_relative_deviation > args.max_error:
-        problems.append(f"max relative length deviation {dev.max_relative_deviation:.3g} exceeds --max-error "
-                        f"{args.max_error:.3g}")
-    if dev.n_flipped:
-        problems.append(f"{dev.n_flipped} faces flipped in the development (first: {int(dev.flipped_faces[0])})")
-    if dev.outline_self_overlaps:
-        problems.append("the outline of the development overlaps itself")
-    if not dev.converged:
-        problems.append(f"the solver did not converge: {dev.message}")
+    problems = development_problems(dev, args.max_error)
 
     outputs = {"mesh": args.output, "dxf": args.dxf, "svg": args.svg, "png": args.png}
     report = {

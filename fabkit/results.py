@@ -1,0 +1,230 @@
+"""The typed, frozen results of the pipeline stages (`fabkit.pipeline`).
+
+Every result has `ok` (the stage met its tolerances), `problems` (a tuple of the one-line verdicts
+the CLI prints for the same inputs, empty when ok) and `to_json()` (a JSON-ready dict: the stage's
+report, the same numbers the CLI's `--report` holds). Arrays and meshes are kept as they are
+(`eq=False`: results compare by identity); `to_json()` turns them into lists.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: importing a result type loads no numpy, robot or sim
+    from fabkit.cutfiles.creases import CreaseAssignment
+    from fabkit.fold import FoldModel
+    from fabkit.io.load import LoadInfo
+    from fabkit.mesh import PolyMesh
+    from fabkit.refold.sequence import FoldSequence
+    from fabkit.relax.options import RelaxResult
+    from fabkit.unfold.development import Development
+    from robot.cell import Cell
+    from robot.planner import PlanResult
+    from robot.sender import SendResult
+    from robot.toolpath import Toolpath
+    from sim.check import CheckReport
+
+
+def _jsonable(data: dict) -> dict:
+    from fabkit.io.jsonfile import to_jsonable
+
+    return to_jsonable(data)
+
+
+@dataclass(frozen=True, eq=False)
+class Panel:
+    """A panel mesh (metres) as loaded or generated: `mesh` (`fabkit.mesh.PolyMesh`), `name` (the
+    file name or `preset NAME`), `loaded` (`fabkit.io.load.LoadInfo`, None for a preset: units,
+    welds, notes), `params` (a preset's parameters, defaults filled in)."""
+
+    mesh: PolyMesh
+    name: str
+    loaded: LoadInfo | None = None
+    params: dict = field(default_factory=dict)
+    ok: bool = True
+    problems: tuple[str, ...] = ()
+
+    @property
+    def notes(self) -> tuple[str, ...]:
+        """What the loader did that can change the result (unit guessed, vertices welded, ...)."""
+        return tuple(self.loaded.notes) if self.loaded is not None else ()
+
+    def to_json(self) -> dict:
+        from fabkit import measures
+
+        return _jsonable({"name": self.name, "ok": self.ok, "problems": list(self.problems),
+                          **measures.summary(self.mesh), "unit": "m", "params": dict(self.params),
+                          "loaded": None if self.loaded is None else self.loaded.to_report()})
+
+
+@dataclass(frozen=True, eq=False)
+class Relaxed:
+    """`fabkit.relax()`: `mesh` the relaxed panel (the input's vertex order, faces and tags),
+    `result` the solver's `fabkit.relax.RelaxResult`, `input` the `Panel` relaxed, `max_move`
+    the share of the panel size a vertex may move."""
+
+    mesh: PolyMesh
+    result: RelaxResult
+    input: Panel | Relaxed
+    max_move: float
+    ok: bool
+    problems: tuple[str, ...]
+
+    @property
+    def name(self) -> str:
+        return self.input.name
+
+    @property
+    def loaded(self) -> LoadInfo | None:
+        """How the first panel of the chain was read (None for a preset)."""
+        return self.input.loaded
+
+    def to_json(self) -> dict:
+        """The report `fabkit relax --report` writes (without the file names)."""
+        r, size = self.result, self.input.mesh.size
+        return _jsonable({"input": self.input.name, "ok": self.ok, "problems": list(self.problems),
+                          "input_summary": {"vertices": self.input.mesh.n_vertices, "faces": self.input.mesh.n_faces,
+                                            "interior_vertices": int(self.input.mesh.interior_vertex_mask.sum())},
+                          **r.to_report(), "unit": "m",
+                          "loaded": None if self.loaded is None else self.loaded.to_report(),
+                          "max_move": {"share": self.max_move, "limit_m": self.max_move * size,
+                                       "moved_m": r.max_displacement,
+                                       "ok": r.max_displacement <= self.max_move * size}})
+
+
+@dataclass(frozen=True, eq=False)
+class Flat:
+    """`fabkit.unfold()`: `mesh` the flat pattern (z = 0, the panel's vertex order and tags),
+    `folded` the panel it unfolds (the refold target), `development` (`fabkit.unfold.Development`:
+    uv, length deviations), `creases` (`fabkit.cutfiles.CreaseAssignment`: M/V/U per edge)."""
+
+    mesh: PolyMesh
+    folded: PolyMesh
+    development: Development
+    creases: CreaseAssignment
+    name: str
+    max_error: float | None
+    ok: bool
+    problems: tuple[str, ...]
+
+    def to_json(self) -> dict:
+        """The report `fabkit unfold --report` writes (without the file names)."""
+        return _jsonable({"format": "fabkit.unfold/1", "input": self.name, "ok": self.ok,
+                          "problems": list(self.problems), "max_error": self.max_error,
+                          "development": self.development.summary(),
+                          "creases": {"source": self.creases.source, **self.creases.counts()},
+                          "units": {"mesh": "m", "cut_files": "mm"}, "unit": "m"})
+
+
+@dataclass(frozen=True, eq=False)
+class Folds:
+    """`fabkit.refold()`: `sequence` (`fabkit.refold.sequence.FoldSequence`: every fold state and
+    its diagnostics; None when the target is not a fold of the flat pattern), `model` the FOLD
+    animation (`fabkit.fold.FoldModel`, what `fabkit refold -o SEQ.fold` writes), `target_tol`."""
+
+    sequence: FoldSequence | None
+    model: FoldModel | None
+    name: str
+    target_tol: float
+    ok: bool
+    problems: tuple[str, ...]
+    details: dict = field(default_factory=dict)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the FOLD animation to `path` (atomically) -> the path."""
+        from fabkit.io.atomic import atomic_path
+        from fabkit.io.fold import save_fold
+
+        if self.model is None:
+            from fabkit.errors import InputError
+
+            raise InputError("there are no fold states to write: " + "; ".join(self.problems), source=str(path))
+        with atomic_path(path) as tmp:
+            save_fold(self.model, tmp)
+        return Path(path)
+
+    def to_json(self) -> dict:
+        """The headline of `fabkit refold --report` (summary, driven edges, notes, tolerances)."""
+        out = {"format": "fabkit.refold/1", "target": self.name, "ok": self.ok, "problems": list(self.problems),
+               "target_tol": self.target_tol, **self.details}
+        if self.sequence is not None:
+            seq = self.sequence
+            out.update({"summary": seq.summary(), "driven_edges": seq.edges[seq.driven], "notes": list(seq.notes)})
+        return _jsonable(out)
+
+
+def plan_report(plan: PlanResult, toolpath: Toolpath) -> dict:
+    """What the planner measured, for the toolpath report (`fabkit toolpath --report`,
+    `Program.to_json()`); `toolpath` is the one written (the planned one, or with the sheet record)."""
+    import math
+
+    return {"toolpath_sha256": toolpath.sha256, "waypoints": len(toolpath), "grip_face": plan.grip_face,
+            "branch": plan.branch, "cycle_time_s": plan.cycle_time,
+            "max_fold_joint_step_deg": math.degrees(toolpath.extra["checks"]["max_fold_joint_step_rad"]),
+            "joint_speed_ratio": plan.joint_speed_ratio, "min_singularity": plan.min_singularity,
+            "faces_tried": [{"face": f, "problem": str(e)} for f, e in plan.tried]}
+
+
+@dataclass(frozen=True, eq=False)
+class Program:
+    """`fabkit.plan()`: `toolpath` (`robot.toolpath.Toolpath`, None when planning failed), the
+    files it was planned from and written to (`fold_file`, `path_file` in `workdir`), the `cell`
+    (`robot.cell.Cell`) and `cell_file`, and the planner's `plan` (`robot.planner.PlanResult`)."""
+
+    toolpath: Toolpath | None
+    workdir: Path
+    fold_file: Path
+    path_file: Path | None
+    cell: Cell
+    cell_file: Path
+    plan: PlanResult | None
+    ok: bool
+    problems: tuple[str, ...]
+    details: dict = field(default_factory=dict)
+
+    def urscript(self, progress_register: int | None = None) -> str:
+        """The URScript program (`fabkit toolpath --script`) of this toolpath."""
+        from robot.urscript import PROGRESS_REGISTER, write_urscript
+
+        reg = PROGRESS_REGISTER if progress_register is None else progress_register
+        return write_urscript(self.toolpath, program_name=f"fold_{self.cell.name}", progress_register=reg)
+
+    def to_json(self) -> dict:
+        """The report `fabkit toolpath --report` writes."""
+        out = {"command": "toolpath", "input": str(self.fold_file), "cell": self.cell.name,
+               "robot": self.cell.model.name, "ok": self.ok, "problems": list(self.problems), **self.details}
+        if self.plan is not None:
+            out.update({"output": str(self.path_file), **plan_report(self.plan, self.toolpath)})
+        return _jsonable(out)
+
+
+@dataclass(frozen=True, eq=False)
+class Checked:
+    """`fabkit.check()`: `report` (`sim.check.CheckReport`), written as `check_file`; `to_json()`
+    is CHECK.json (`fabkit.check/2`), the very report `fabkit check` writes for the same PATH.json."""
+
+    report: CheckReport
+    program: Program
+    check_file: Path
+    ok: bool
+    problems: tuple[str, ...]
+
+    def to_json(self) -> dict:
+        return self.report.to_json()
+
+
+@dataclass(frozen=True, eq=False)
+class Sent:
+    """`fabkit.send()`: `result` (`robot.sender.SendResult`: last completed waypoint, reason,
+    final pose error); `ok` when every waypoint was reached."""
+
+    result: SendResult
+    host: str
+    ok: bool
+    problems: tuple[str, ...]
+
+    def to_json(self) -> dict:
+        """The report `fabkit send --report` writes."""
+        return _jsonable({"ok": self.ok, "sent": True, "host": self.host, "problems": list(self.problems),
+                          **self.result.to_json()})
