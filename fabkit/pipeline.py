@@ -3,13 +3,13 @@
 Each stage is one typed function returning a frozen result (`fabkit.results`) with `ok`,
 `problems` (the verdicts the CLI prints, with the CLI's default tolerances) and `to_json()`:
 
-    panel = fabkit.load("panel.obj", units="mm")      # or fabkit.generate("trifold")
-    relaxed = fabkit.relax(panel)
-    flat = fabkit.unfold(relaxed)
-    folds = fabkit.refold(flat, relaxed)
-    program = fabkit.plan(folds, "cells/ur5e_bench.toml")
-    report = fabkit.check(program)                    # CHECK.json, as `fabkit check` writes it
-    fabkit.send(program, report, host="192.168.0.10")  # through the safety gate
+    panel = fk.load("panel.obj", units="mm")      # or fk.generate("trifold")
+    relaxed = fk.relax(panel)
+    flat = fk.unfold(relaxed)
+    folds = fk.refold(flat, relaxed)
+    program = fk.plan(folds, "cells/ur5e_bench.toml")
+    report = fk.check(program)                    # CHECK.json, as `fabkit check` writes it
+    fk.send(program, report, host="192.168.0.10")  # through the safety gate
 
 A stage refuses (`InputError`) a result that is not `ok`: the CLI would have stopped there too
 (relax writes no panel, refold no states, toolpath no program). Verdicts come from the library:

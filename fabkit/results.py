@@ -60,7 +60,7 @@ class Panel:
 
 @dataclass(frozen=True, eq=False)
 class Relaxed:
-    """`fabkit.relax()`: `mesh` the relaxed panel (the input's vertex order, faces and tags),
+    """`fk.relax()`: `mesh` the relaxed panel (the input's vertex order, faces and tags),
     `result` the solver's `fabkit.relax.RelaxResult`, `input` the `Panel` relaxed, `max_move`
     the share of the panel size a vertex may move."""
 
@@ -95,7 +95,7 @@ class Relaxed:
 
 @dataclass(frozen=True, eq=False)
 class Flat:
-    """`fabkit.unfold()`: `mesh` the flat pattern (z = 0, the panel's vertex order and tags),
+    """`fk.unfold()`: `mesh` the flat pattern (z = 0, the panel's vertex order and tags),
     `folded` the panel it unfolds (the refold target), `development` (`fabkit.unfold.Development`:
     uv, length deviations), `creases` (`fabkit.cutfiles.CreaseAssignment`: M/V/U per edge)."""
 
@@ -119,7 +119,7 @@ class Flat:
 
 @dataclass(frozen=True, eq=False)
 class Folds:
-    """`fabkit.refold()`: `sequence` (`fabkit.refold.sequence.FoldSequence`: every fold state and
+    """`fk.refold()`: `sequence` (`fabkit.refold.sequence.FoldSequence`: every fold state and
     its diagnostics; None when the target is not a fold of the flat pattern), `model` the FOLD
     animation (`fabkit.fold.FoldModel`, what `fabkit refold -o SEQ.fold` writes), `target_tol`."""
 
@@ -168,7 +168,7 @@ def plan_report(plan: PlanResult, toolpath: Toolpath) -> dict:
 
 @dataclass(frozen=True, eq=False)
 class Program:
-    """`fabkit.plan()`: `toolpath` (`robot.toolpath.Toolpath`, None when planning failed), the
+    """`fk.plan()`: `toolpath` (`robot.toolpath.Toolpath`, None when planning failed), the
     files it was planned from and written to (`fold_file`, `path_file` in `workdir`), the `cell`
     (`robot.cell.Cell`) and `cell_file`, and the planner's `plan` (`robot.planner.PlanResult`)."""
 
@@ -201,7 +201,7 @@ class Program:
 
 @dataclass(frozen=True, eq=False)
 class Checked:
-    """`fabkit.check()`: `report` (`sim.check.CheckReport`), written as `check_file`; `to_json()`
+    """`fk.check()`: `report` (`sim.check.CheckReport`), written as `check_file`; `to_json()`
     is CHECK.json (`fabkit.check/2`), the very report `fabkit check` writes for the same PATH.json."""
 
     report: CheckReport
@@ -216,7 +216,7 @@ class Checked:
 
 @dataclass(frozen=True, eq=False)
 class Sent:
-    """`fabkit.send()`: `result` (`robot.sender.SendResult`: last completed waypoint, reason,
+    """`fk.send()`: `result` (`robot.sender.SendResult`: last completed waypoint, reason,
     final pose error); `ok` when every waypoint was reached."""
 
     result: SendResult

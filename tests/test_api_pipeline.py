@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 import fabkit
+import fabkit.pipeline as fk
 from fabkit.cli import main
 from fabkit.io.jsonfile import to_jsonable
 
@@ -25,11 +26,11 @@ def _cli(*argv) -> int:
 
 def _six_lines(panel, workdir):
     """The docs/api.md script (the demo's --small sizes: 4 fold states)."""
-    relaxed = fabkit.relax(panel)
-    flat = fabkit.unfold(relaxed)
-    folds = fabkit.refold(flat, relaxed, frames=4)
-    program = fabkit.plan(folds, CELL, workdir=workdir)
-    report = fabkit.check(program)
+    relaxed = fk.relax(panel)
+    flat = fk.unfold(relaxed)
+    folds = fk.refold(flat, relaxed, frames=4)
+    program = fk.plan(folds, CELL, workdir=workdir)
+    report = fk.check(program)
     return relaxed, flat, folds, program, report
 
 
@@ -61,7 +62,7 @@ def _assert_check_equals_cli(report, program, tmp_path: Path) -> dict:
 
 
 def test_six_lines_on_the_trifold_give_the_check_report_of_fabkit_check(tmp_path):
-    panel = fabkit.generate("trifold", resolution=6)
+    panel = fk.generate("trifold", resolution=6)
     relaxed, flat, folds, program, report = _six_lines(panel, tmp_path)
     for result in (panel, relaxed, flat, folds, program, report):
         assert result.ok and result.problems == (), result.problems
@@ -81,7 +82,7 @@ def test_six_lines_on_the_trifold_give_the_check_report_of_fabkit_check(tmp_path
 
 def test_six_lines_on_a_plain_millimetre_obj(tmp_path):
     plain = _plain_mm_obj(tmp_path)
-    panel = fabkit.load(plain, units="mm")
+    panel = fk.load(plain, units="mm")
     assert panel.loaded.unit == "mm" and 0.5 < panel.mesh.size < 2.0  # read as mm, metres inside
     assert not {"strip", "middle"} & set(panel.mesh.face_data)
     work = tmp_path / "work"
@@ -96,7 +97,7 @@ def test_six_lines_on_a_plain_millimetre_obj(tmp_path):
 def test_the_api_and_the_cli_chain_make_the_same_program(tmp_path):
     """The whole CLI chain on the same tri-fold gives the same toolpath and check numbers; only the
     FOLD file's bytes (its title names the files) and so the hashes differ."""
-    panel = fabkit.generate("trifold", resolution=6)
+    panel = fk.generate("trifold", resolution=6)
     api = tmp_path / "api"
     api.mkdir()
     *_, program, report = _six_lines(panel, api)
@@ -121,10 +122,10 @@ def test_the_api_and_the_cli_chain_make_the_same_program(tmp_path):
 
 
 def test_results_are_frozen_typed_and_json(tmp_path):
-    panel = fabkit.generate("reflect", columns=6, rows=2)
-    relaxed = fabkit.relax(panel)
-    flat = fabkit.unfold(relaxed, max_error=1e-6)
-    folds = fabkit.refold(flat, frames=3)
+    panel = fk.generate("reflect", columns=6, rows=2)
+    relaxed = fk.relax(panel)
+    flat = fk.unfold(relaxed, max_error=1e-6)
+    folds = fk.refold(flat, frames=3)
     results = {fabkit.Panel: panel, fabkit.Relaxed: relaxed, fabkit.Flat: flat, fabkit.Folds: folds}
     for kind, result in results.items():
         assert type(result) is kind and dataclasses.is_dataclass(result)
@@ -138,13 +139,13 @@ def test_results_are_frozen_typed_and_json(tmp_path):
 
 
 def test_a_missed_tolerance_is_the_cli_verdict_and_stops_the_next_stage(tmp_path):
-    panel = fabkit.generate("trifold", resolution=4)
-    relaxed = fabkit.relax(panel, max_move=1e-9)
+    panel = fk.generate("trifold", resolution=4)
+    relaxed = fk.relax(panel, max_move=1e-9)
     assert not relaxed.ok and len(relaxed.problems) == 1
     assert "more than --max-move 1e-09" in relaxed.problems[0]
     with pytest.raises(fabkit.InputError, match="unfold needs a result that passed"):
-        fabkit.unfold(relaxed)
-    flat = fabkit.unfold(fabkit.relax(panel), max_error=1e-30)
+        fk.unfold(relaxed)
+    flat = fk.unfold(fk.relax(panel), max_error=1e-30)
     assert not flat.ok and flat.problems[0].startswith("max relative length deviation")
     # the CLI says the same for the same tolerance
     obj = tmp_path / "t.obj"
@@ -157,22 +158,24 @@ def test_a_missed_tolerance_is_the_cli_verdict_and_stops_the_next_stage(tmp_path
 
 def test_not_a_fold_and_preset_rules_are_refused_as_the_cli_refuses_them():
     with pytest.raises(fabkit.InputError, match="--creases must be 1 or 2"):
-        fabkit.generate("reflect", creases=3)
+        fk.generate("reflect", creases=3)
     with pytest.raises(fabkit.InputError, match="has no parameter --resolution"):
-        fabkit.generate("reflect", resolution=6)
-    a = fabkit.unfold(fabkit.generate("reflect", columns=6, rows=2, fold=30))
-    b = fabkit.generate("reflect", columns=6, rows=2, fold=30, width=0.7)
-    folds = fabkit.refold(a, b, frames=3)
+        fk.generate("reflect", resolution=6)
+    a = fk.unfold(fk.generate("reflect", columns=6, rows=2, fold=30))
+    b = fk.generate("reflect", columns=6, rows=2, fold=30, width=0.7)
+    folds = fk.refold(a, b, frames=3)
     assert not folds.ok and folds.sequence is None and folds.model is None
     assert "worst_edge" in folds.to_json()
 
 
-def test_import_fabkit_is_cheap_and_keeps_the_stage_names():
-    code = ("import sys, fabkit; heavy = [m for m in ('numpy', 'scipy', 'robot', 'sim') if m in sys.modules]; "
-            "import fabkit.relax, fabkit.unfold.plot; from fabkit.refold import RefoldSolver; "
-            "print(heavy, callable(fabkit.relax), callable(fabkit.unfold), callable(fabkit.refold))")
+def test_import_fabkit_is_cheap_and_the_subpackages_stay_subpackages():
+    code = ("import sys, fabkit, fabkit.pipeline as fk; "
+            "heavy = [m for m in ('numpy', 'scipy', 'robot', 'sim') if m in sys.modules]; "
+            "import fabkit.relax.solver as solver, fabkit.unfold.plot; from fabkit.refold import RefoldSolver; "
+            "print(heavy, callable(fk.relax), callable(fk.unfold), callable(fk.refold), "
+            "type(fabkit.relax).__name__, callable(solver.relax))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
-    assert out.stdout.strip() == "[] True True True"
+    assert out.stdout.strip() == "[] True True True module True"
     source = Path(fabkit.pipeline.__file__).read_text()
     assert not re.search(r"^(from|import) (robot|sim)\b", source, re.MULTILINE)  # only inside plan/check/send
 
@@ -182,18 +185,18 @@ def test_send_goes_through_the_safety_gate_to_the_stand_in(tmp_path):
     from _ursim import StandIn
     from robot.interlock import CheckFailedError
 
-    panel = fabkit.generate("trifold", resolution=6)
+    panel = fk.generate("trifold", resolution=6)
     *_, program, report = _six_lines(panel, tmp_path)
     failed = dataclasses.replace(report, report=dataclasses.replace(report.report, ok=False), ok=False)
     with pytest.raises(CheckFailedError):
-        fabkit.send(program, failed, host="127.0.0.1")  # refused before any connection
+        fk.send(program, failed, host="127.0.0.1")  # refused before any connection
     with pytest.raises(fabkit.InputError, match=r"seconds in \(0, 5\]"):
-        fabkit.send(program, report, host="127.0.0.1", stall=60)  # a stall limit that blunts the watchdog
+        fk.send(program, report, host="127.0.0.1", stall=60)  # a stall limit that blunts the watchdog
     with pytest.raises(fabkit.InputError, match="not an IP address or host name"):
-        fabkit.send(program, report, host="-robot-")
+        fk.send(program, report, host="-robot-")
     standin = StandIn("--cell", CELL, log=tmp_path / "ursim.log")
     try:
-        sent = fabkit.send(program, report, host=standin.host, power_on=True)
+        sent = fk.send(program, report, host=standin.host, power_on=True)
         assert sent.ok and sent.problems == (), sent.problems
         assert sent.result.last_completed == len(program.toolpath) - 1
         assert sent.result.toolpath_sha256 == program.toolpath.sha256
