@@ -193,7 +193,7 @@ def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, fr
     others = [int(k) for k in np.unique(strip) if k != cs]
     # together: every strip beyond the clamp's held by an arm
     if len(others) <= arms:
-        F, st = build_schedule(solver.panel, flat, driven, None, frames)
+        F, st = build_schedule(solver.panel, driven, None, frames)
         seq = solver.solve(F, driven, st)
         ph = Phase(tuple(sorted(rows)), (clamp,), tuple((a, pick[k]) for a, k in enumerate(others)),
                    (0, seq.n_states - 1), ())
@@ -204,7 +204,7 @@ def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, fr
     order = sorted(rows, key=lambda r: (min(abs(r - cs), abs(r + 1 - cs)), r))
     steps = [driven[np.isin(driven, rows[r])] for r in order]
     if all(len(g) for g in steps) and (jig or arms == 2 or len(order) == 1):
-        F, st = build_schedule(solver.panel, flat, driven, steps, frames)
+        F, st = build_schedule(solver.panel, driven, steps, frames)
         seq = solver.solve(F, driven, st)
         phases, done = [], []
         for g, r in enumerate(order):
@@ -243,7 +243,7 @@ def _cup_picks(solver, flat, strip, driven, frames, cup_radius, pick):
     """Grip face per strip from the cup footprint on the all-together fold states."""
     from fabkit.grip_footprint import grip_candidates
 
-    F, st = build_schedule(solver.panel, flat, driven, None, frames)
+    F, st = build_schedule(solver.panel, driven, None, frames)
     seq = solver.solve(F, driven, st, check_intersections=False)
     out, problems = dict(pick), []
     for k in pick:

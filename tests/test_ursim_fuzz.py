@@ -253,5 +253,5 @@ def test_fuzz_every_port_while_ur_rtde_streams(standin, tmp_path):
     # ... and the stand-in still runs the demo program to completion
     tp = demo_toolpath()
     path, check = write_job(tmp_path, tp)
-    assert fabkit_main(["send", str(path), "--check", str(check), "--host", host, "--quiet", "--unlock"]) == 0
+    assert fabkit_main(["send", str(path), "--check", str(check), "--cell", str(CELL), "--host", host, "--quiet", "--unlock"]) == 0
     assert np.abs(np.array(standin.state()["q"]) - tp.waypoints[-1]["q"]).max() < 1e-9

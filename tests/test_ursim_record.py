@@ -39,7 +39,7 @@ def sent(standin, tmp_path_factory):
     tp = demo_toolpath()
     path, check = write_job(tmp_path_factory.mktemp("job"), tp)
     assert standin.admin("record clear")["ok"]
-    rc = fabkit_main(["send", str(path), "--check", str(check), "--host", standin.host, "--quiet"])
+    rc = fabkit_main(["send", str(path), "--check", str(check), "--cell", str(CELL), "--host", standin.host, "--quiet"])
     assert rc == 0, standin.log_text()[-2000:]
     return tp, standin.admin("record")["commands"]
 

@@ -21,6 +21,12 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.cell, "CELL.toml")
+    plan.output(args.mjcf, "--mjcf")
+    plan.output(getattr(args, "report", None), "--report")
+
+
 def run(args) -> int:
     from pathlib import Path
 

@@ -51,10 +51,19 @@ def _row(m) -> list[str]:
             f"{m.density:g}", f"{m.calibration:g}", kf, rmin, ", ".join(m.preparations)]
 
 
+def plan_files(args, plan) -> None:
+    plan.input(list(args.files), "MATERIAL.toml")
+    plan.input(args.calibrate, "--calibrate")
+    plan.output(args.output, "-o")
+    plan.output(getattr(args, "report", None), "--report")
+
+
 def run(args) -> int:
     from fabkit.errors import InputError
     from fabkit.io.atomic import atomic_write
-    from fabkit.materials import library, load_material
+    import tomllib
+
+    from fabkit.materials import library, load_material, parse_material
 
     if args.calibrate:
         from fabkit.materials.calibrate import load_calibration
@@ -66,9 +75,10 @@ def run(args) -> int:
         if not Path(args.output).parent.is_dir():
             raise InputError("output directory does not exist", source=args.output)
         cal = load_calibration(args.calibrate)
+        text = cal.toml(args.calibrate)
+        parse_material(tomllib.loads(text), args.output)  # what we write reads back as a material
         with atomic_write(args.output) as fh:
-            fh.write(cal.toml(args.calibrate))
-        load_material(args.output)  # what we wrote reads back
+            fh.write(text)
         write_report(args, {"command": "materials", "ok": True, "calibration": cal.summary(), "output": args.output})
         say(args, f"{args.output}: {cal.material.name}, springback factor {cal.factor:.4g} from {len(cal.folds)} "
                   f"test fold(s) (rms residual {cal.summary()['rms_residual_deg']:.3g} deg)")

@@ -22,6 +22,14 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    import os
+
+    plan.output(os.path.join(args.directory, "report.html") if os.path.isdir(args.directory) else None,
+                "report.html")
+    plan.output(getattr(args, "report", None), "--report")
+
+
 def run(args) -> int:
     from pathlib import Path
 

@@ -28,6 +28,12 @@ def add_arguments(parser) -> None:
     add_common(parser)
 
 
+def plan_files(args, plan) -> None:
+    plan.input(args.input, "IN")
+    plan.output(args.output, "-o")
+    plan.output(args.report, "--report")
+
+
 def run(args) -> int:
     from fabkit.commands.info import structure_lines
     from fabkit.errors import InputError

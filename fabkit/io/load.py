@@ -23,6 +23,7 @@ import numpy as np
 from fabkit.errors import InputError, MeshError
 from fabkit.io import hygiene
 from fabkit.io.units import UNITS, scale_to_metres, unit_note
+from fabkit.io.validate import check_coordinates
 from fabkit.mesh import PolyMesh, validate_mesh
 
 __all__ = ["load_panel", "load_fold_model", "LoadInfo", "PANEL_SUFFIXES", "STATES", "side_assignments"]
@@ -98,6 +99,7 @@ def _finish(path: str, fmt: str, V, faces, face_data, vertex_data, unit: str, ho
     if len(faces) == 0:
         raise MeshError(f"no faces ({len(V)} vertices)", source=path)
     V = np.asarray(V, dtype=np.float64).reshape(-1, 3)
+    check_coordinates(V, path)  # finite and fabrication-sized, before any geometry is measured
 
     def located(exc: MeshError) -> MeshError:
         if lines is None or exc.source:

@@ -174,7 +174,7 @@ def refold_and_program(task: dict) -> dict:
         driven, notes = solver.driven_hinges("middle-row")
     except (NotAFoldError, InputError) as exc:
         return {**out, "stage": "refold", "reason": str(exc), "seconds": time.perf_counter() - t0}
-    fractions, step_of_state = build_schedule(solver.panel, flat, driven, None, int(task["frames"]))
+    fractions, step_of_state = build_schedule(solver.panel, driven, None, int(task["frames"]))
     seq = solver.solve(fractions, driven, step_of_state, check_intersections=True, notes=notes)
     summary = seq.summary()
     out["refold"] = summary
