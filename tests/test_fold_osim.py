@@ -91,7 +91,7 @@ def test_panels_fold_passes_and_is_a_two_state_fold(tmp_path):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        surface = subdivide_grid(canopy_lowpoly(), 4)
+        surface = subdivide_grid(canopy_lowpoly(), 2)
         run = run_panels(layout_panels(surface, rows=2, cols=1, columns_per_panel=4), PanelsOptions(max_rounds=0))
     write_run(run, tmp_path / "out", plots=False, cut_files=False)
     folds = sorted((tmp_path / "out" / "panels").glob("*.fold"))

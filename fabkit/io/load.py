@@ -99,7 +99,6 @@ def _finish(path: str, fmt: str, V, faces, face_data, vertex_data, unit: str, ho
     if len(faces) == 0:
         raise MeshError(f"no faces ({len(V)} vertices)", source=path)
     V = np.asarray(V, dtype=np.float64).reshape(-1, 3)
-    check_coordinates(V, path)  # finite and fabrication-sized, before any geometry is measured
 
     def located(exc: MeshError) -> MeshError:
         if lines is None or exc.source:
@@ -107,6 +106,11 @@ def _finish(path: str, fmt: str, V, faces, face_data, vertex_data, unit: str, ho
         from fabkit.io.obj import locate_obj_error
 
         return MeshError(locate_obj_error(exc.message, *lines), source=path)
+
+    try:  # finite and fabrication-sized, before any geometry is measured
+        check_coordinates(V, None)
+    except MeshError as exc:
+        raise located(exc) from None
 
     try:  # the file as written: structure and coordinates, errors named by its lines
         validate_mesh(PolyMesh(V, faces, validate=False), source=None)

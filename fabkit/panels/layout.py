@@ -98,7 +98,9 @@ def _grid_quads(n_r: int, n_c: int) -> np.ndarray:
 
 def crease_rows(surface: GridSurface, min_angle: float = CREASE_ANGLE) -> np.ndarray:
     """Interior grid rows along which the surface kinks: the mean angle between the normals of the
-    quads on either side exceeds `min_angle` and is a local maximum over the rows."""
+    quads on either side is a local maximum over the rows and exceeds the mean of its two
+    neighbours' by more than `min_angle` (a jump, not a bare threshold: the facets of a coarsely
+    subdivided smooth surface turn by 5-10 deg on several rows in a row and are no crease)."""
     P = surface.points
     n = np.cross(P[1:, 1:] - P[:-1, :-1], P[:-1, 1:] - P[1:, :-1])  # quad (i, j) normals from diagonals
     n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
@@ -106,7 +108,8 @@ def crease_rows(surface: GridSurface, min_angle: float = CREASE_ANGLE) -> np.nda
         return np.zeros(0, np.int64)
     turn = np.arccos(np.clip(np.einsum("ijk,ijk->ij", n[:, :-1], n[:, 1:]), -1.0, 1.0)).mean(axis=0)
     padded = np.concatenate([[0.0], turn, [0.0]])
-    peak = (turn > min_angle) & (turn >= padded[:-2]) & (turn >= padded[2:])
+    jump = turn - 0.5 * (padded[:-2] + padded[2:])
+    peak = (jump > min_angle) & (turn >= padded[:-2]) & (turn >= padded[2:])
     return np.flatnonzero(peak).astype(np.int64) + 1  # row j lies between quad rows j-1 and j
 
 
