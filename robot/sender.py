@@ -246,11 +246,14 @@ class _Sender:
         else:
             method, args = "move_l", (w["pose"], w["v"], w["a"], True)
         self._run_async(method, args, "the final register move", lambda p, st: None, 30.0)
-        for _ in range(10):  # let the receive stream catch up with the control stream
-            st = self.poll()
+        last = None
+        for _ in range(25):  # let the receive stream catch up with the control stream: settled = the
+            st = self.poll()  # pose no longer changes between two polls (bounded: 25 x 20 ms)
             dp, dr = pose_distance(st["tcp_pose"], w["pose"])
-            if dp <= self.s.final_tol_m and dr <= self.s.final_tol_rad:
+            settled = last is not None and max(pose_distance(st["tcp_pose"], last)) <= 1e-9
+            if dp <= self.s.final_tol_m and dr <= self.s.final_tol_rad and settled:
                 break
+            last = st["tcp_pose"]
             time.sleep(0.02)
         result.final_error_m, result.final_error_rad = dp, dr
         if dp > self.s.final_tol_m or dr > self.s.final_tol_rad:

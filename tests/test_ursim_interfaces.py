@@ -12,6 +12,7 @@ import time
 import numpy as np
 import pytest
 
+from test_ursim_protocol import RawRTDE as ProtocolRTDE
 from _ursim import CELL, StandIn, demo_toolpath, external_host
 from sim.ursim.rtde_vars import OUTPUTS, TYPE_FORMATS
 
@@ -55,32 +56,16 @@ def _subpackages(msg: bytes) -> list[tuple[int, int, bytes]]:
     return out
 
 
-class RawRTDE:
+class RawRTDE(ProtocolRTDE):
+    """The protocol tests' byte-level RTDE client, with protocol version 2 negotiated on connect."""
+
     def __init__(self, host):
-        self.sock = socket.create_connection((host, 30004), timeout=5)
-        self.buf = b""
+        super().__init__(host)
         self.send(b"V", struct.pack(">H", 2))
         assert self.recv() == ("V", b"\x01")
 
-    def send(self, kind, payload=b""):
-        self.sock.sendall(struct.pack(">HB", 3 + len(payload), kind[0]) + payload)
-
-    def recv(self):
-        while True:
-            if len(self.buf) >= 3:
-                size, kind = struct.unpack_from(">HB", self.buf)
-                if len(self.buf) >= size:
-                    pkg, self.buf = self.buf[:size], self.buf[size:]
-                    return chr(kind), pkg[3:]
-            data = self.sock.recv(65536)
-            assert data, "closed"
-            self.buf += data
-
     def outputs(self, names, freq=500.0):
-        self.send(b"O", struct.pack(">d", freq) + (",".join(names) + ",").encode())
-        kind, payload = self.recv()
-        assert kind == "O"
-        return payload[0], payload[1:].decode().split(",")
+        return self.setup_outputs(names, freq)
 
 
 # ---- secondary / primary ------------------------------------------------------------------------
