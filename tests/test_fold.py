@@ -201,22 +201,22 @@ def test_round_trip_is_exact(tmp_path, rng):
 
 
 def test_unit_and_angle_conversion_exact_on_many_random_values(rng):
-    from fabkit.io.fold import _degrees_to_radians, _metres_to_mm_text, _Num, _radians_to_degrees_text, _to_si
+    from fabkit.io.fold_numbers import degrees_to_radians, metres_to_mm_text, Num, radians_to_degrees_text, to_si
 
     V = rng.uniform(-3, 3, size=3000) * 10.0 ** rng.integers(-6, 2, size=3000)
-    texts = [_metres_to_mm_text(x) for x in V]
-    back = np.array([_to_si(_Num(t) if "." in t or "e" in t else int(t), "mm") for t in texts])
+    texts = [metres_to_mm_text(x) for x in V]
+    back = np.array([to_si(Num(t) if "." in t or "e" in t else int(t), "mm") for t in texts])
     assert np.array_equal(back, V)
     # the same through the decimal path (exponent texts) and the text of a JSON integer
-    assert _to_si(_Num("1.5e-2"), "mm") == 1.5e-5 and _to_si(1500, "mm") == 1.5
-    assert _to_si(_Num("2.54"), "cm") == 0.0254 and _to_si(_Num("0.1"), "m") == 0.1
+    assert to_si(Num("1.5e-2"), "mm") == 1.5e-5 and to_si(1500, "mm") == 1.5
+    assert to_si(Num("2.54"), "cm") == 0.0254 and to_si(Num("0.1"), "m") == 0.1
     np.testing.assert_allclose(np.array([float(t) for t in texts]), V * 1000, rtol=1e-15)
     A = np.concatenate([rng.uniform(-np.pi, np.pi, 3000), [np.pi, -np.pi, np.pi / 2, 0.0]])
-    deg = [_radians_to_degrees_text(a) for a in A]
-    assert np.array_equal(np.array([_degrees_to_radians(_Num(t)) for t in deg]), A)
+    deg = [radians_to_degrees_text(a) for a in A]
+    assert np.array_equal(np.array([degrees_to_radians(Num(t)) for t in deg]), A)
     assert deg[-4:] == ["180.0", "-180.0", "90.0", "0"]
     assert max(len(t) for t in deg) <= 24
-    assert _to_si(1, "in") == 0.0254 and _to_si(72, "pt") == 0.0254 and _to_si(_Num("0.5"), "um") == 5e-7
+    assert to_si(1, "in") == 0.0254 and to_si(72, "pt") == 0.0254 and to_si(Num("0.5"), "um") == 5e-7
 
 
 # ---- reading public-style shapes (our own look-alike fixtures) -----------------------------------
@@ -397,22 +397,22 @@ from hypothesis import strategies as st  # noqa: E402
 @settings(max_examples=400, deadline=None)
 @given(st.floats(allow_nan=False, allow_infinity=False))
 def test_any_double_survives_the_mm_text(x):
-    from fabkit.io.fold import _metres_to_mm_text, _Num, _to_si
+    from fabkit.io.fold_numbers import metres_to_mm_text, Num, to_si
 
-    text = _metres_to_mm_text(x)
-    value = json.loads(text, parse_float=_Num)  # what the reader sees
-    back = _to_si(value, "mm")
+    text = metres_to_mm_text(x)
+    value = json.loads(text, parse_float=Num)  # what the reader sees
+    back = to_si(value, "mm")
     assert back == x and (x != 0 or np.signbit(back) == np.signbit(x) or text in ("0", "-0"))
 
 
 @settings(max_examples=400, deadline=None)
 @given(st.floats(min_value=-np.pi, max_value=np.pi))
 def test_any_angle_survives_the_degree_text(a):
-    from fabkit.io.fold import _degrees_to_radians, _Num, _radians_to_degrees_text
+    from fabkit.io.fold_numbers import degrees_to_radians, Num, radians_to_degrees_text
 
-    text = _radians_to_degrees_text(a)
-    value = json.loads(text, parse_float=_Num)
-    assert _degrees_to_radians(value) == a
+    text = radians_to_degrees_text(a)
+    value = json.loads(text, parse_float=Num)
+    assert degrees_to_radians(value) == a
     assert abs(float(text)) <= 180.0
 
 

@@ -26,7 +26,6 @@ and the element. Remarks made while reading (unit assumptions, a pattern rotated
 """
 from __future__ import annotations
 
-import decimal
 import json
 import math
 import os
@@ -37,6 +36,8 @@ import numpy as np
 from fabkit.errors import InputError, MeshError
 from fabkit.fold import ASSIGNMENTS, FoldFrame, FoldModel, validate_fold_model
 from fabkit.io.atomic import atomic_write
+from fabkit.io.fold_numbers import (UNIT_TO_METRES, Num, degrees_to_radians, metres_to_mm_text,
+                                    number_text, radians_to_degrees_text, to_si)
 from fabkit.io.validate import check_coordinates
 from fabkit.io.obj import read_text
 from fabkit.mesh import validate_mesh
@@ -47,41 +48,6 @@ __all__ = ["load_fold", "save_fold", "parse_fold", "fold_to_json", "fold_text", 
 FOLD_SPEC = 1.2
 WRITE_UNIT = "mm"
 
-# ---- exact unit conversion ----------------------------------------------------------------------
-# Numbers cross the file boundary through `decimal` (hand-written: no library converts JSON number
-# text between units without a second rounding). Coordinates are written as the exact decimal of
-# `repr(x)` shifted three places (metres -> mm) and read back by shifting the file's digits, so every
-# double survives a round trip bitwise. Angles are written as the shortest degree string that reads
-# back (through pi/180 to 40 digits) to the same double.
-_CTX = decimal.Context(prec=40, Emax=decimal.MAX_EMAX, Emin=decimal.MIN_EMIN)
-
-
-def _pi(digits: int = 50) -> decimal.Decimal:
-    """pi to `digits` digits (the series from the Python `decimal` documentation)."""
-    ctx = decimal.Context(prec=digits + 5)
-    three = decimal.Decimal(3)
-    lasts, t, s, n, na, d, da = 0, three, three, 1, 0, 0, 24
-    while s != lasts:
-        lasts = s
-        n, na = n + na, na + 8
-        d, da = d + da, da + 32
-        t = ctx.divide(ctx.multiply(t, n), d)
-        s = ctx.add(s, t)
-    return +s
-
-
-_RAD_PER_DEG = _CTX.divide(_pi(), decimal.Decimal(180))
-_DEG_PER_RAD = _CTX.divide(decimal.Decimal(180), _pi())
-
-#: FOLD `frame_unit` -> metres per file unit (exact decimals; pt = 1/72 in to 40 digits).
-UNIT_TO_METRES: dict[str, decimal.Decimal] = {
-    "m": decimal.Decimal(1), "cm": decimal.Decimal("0.01"), "mm": decimal.Decimal("0.001"),
-    "um": decimal.Decimal("1e-6"), "nm": decimal.Decimal("1e-9"), "in": decimal.Decimal("0.0254"),
-    "pt": _CTX.divide(decimal.Decimal("0.0254"), decimal.Decimal(72)), "unit": decimal.Decimal(1),
-}
-#: units that are a power of ten of a metre: metres = value * 10**-k, done by appending "e-k" to the text
-_POW10 = {"m": 0, "unit": 0, "cm": 2, "mm": 3, "um": 6, "nm": 9}
-
 _PREFIX = "fabkit:"
 #: edges fabkit holds as J (quad diagonals) are written as F with this 0/1 marker (flavour "compatible")
 _JOIN_KEY = "edges_fabkit:join"
@@ -91,86 +57,6 @@ _JOIN_KEY = "edges_fabkit:join"
 FLAVOURS = ("compatible", "spec")
 _KEY_TOPOLOGY = ("edges_vertices", "faces_vertices")
 
-
-class _Num(float):
-    """A JSON number that remembers its text (so unit conversion can start from the exact decimal)."""
-
-    def __new__(cls, text: str) -> "_Num":
-        obj = super().__new__(cls, text)
-        obj.text = text
-        return obj
-
-
-def _text(x: float | int) -> str:
-    return x.text if isinstance(x, _Num) else repr(x) if isinstance(x, float) else str(int(x))
-
-
-def _decimal_json(d: decimal.Decimal) -> str:
-    """A Decimal as a JSON number: plain digits for everyday magnitudes, exponent form otherwise."""
-    if d.is_zero():
-        return "0"
-    if -7 <= d.adjusted() <= 15:
-        t = format(d, "f")
-        if "." in t:
-            t = t.rstrip("0").rstrip(".")
-        return t
-    return str(d).replace("E", "e")
-
-
-def _to_si(x: float | int, unit: str) -> float:
-    """A number from the file in `unit` -> metres, rounded once (exactly the decimal the file wrote)."""
-    k = _POW10.get(unit)
-    if k == 0:
-        return float(x)
-    t = _text(x)
-    if k is not None and "e" not in t and "E" not in t:
-        return float(f"{t}e-{k}")  # Python's float() rounds the exact decimal once
-    return float(_CTX.multiply(decimal.Decimal(t), UNIT_TO_METRES[unit]))
-
-
-def _metres_to_mm_text(x: float) -> str:
-    """`repr(x)` metres with the decimal point moved three places: exact, reads back to exactly x."""
-    r = repr(float(x))
-    if "e" in r or "n" in r:  # exponent form, inf, nan: let decimal do it
-        return _decimal_json(decimal.Decimal(r).scaleb(3))
-    sign = "-" if r[0] == "-" else ""
-    whole, frac = r.lstrip("-").split(".")
-    frac = frac.ljust(3, "0")
-    new_whole = (whole + frac[:3]).lstrip("0") or "0"
-    new_frac = frac[3:].rstrip("0")
-    return sign + new_whole + ("." + new_frac if new_frac else "")
-
-
-_RADIANS_OF: dict[str, float] = {}
-
-
-def _degrees_to_radians(x: float | int) -> float:
-    """Degrees (file text) -> radians through pi/180 to 40 digits, rounded once (memoised by text)."""
-    t = _text(x)
-    a = _RADIANS_OF.get(t)
-    if a is None:
-        a = float(_CTX.multiply(decimal.Decimal(t), _RAD_PER_DEG))
-        if len(_RADIANS_OF) < 100_000:
-            _RADIANS_OF[t] = a
-    return a
-
-
-def _radians_to_degrees_text(a: float) -> str | None:
-    """Shortest degree string that `_degrees_to_radians` maps back to exactly `a` (None for NaN)."""
-    a = float(a)
-    if math.isnan(a):
-        return None
-    if a == 0.0:
-        return "0"
-    t = repr(float(np.degrees(a)))
-    if _degrees_to_radians(_Num(t)) == a:
-        return t
-    exact = _CTX.multiply(decimal.Decimal(a), _DEG_PER_RAD)
-    for digits in range(15, 30):
-        t = _decimal_json(decimal.Context(prec=digits).plus(exact))
-        if _degrees_to_radians(_Num(t)) == a:
-            return t
-    return repr(float(np.degrees(a)))  # pragma: no cover - 30 digits always suffice
 
 
 # ---- writing -------------------------------------------------------------------------------------
@@ -183,7 +69,7 @@ class _Rows(list):
 
 
 def _coords_rows(V: np.ndarray) -> _Rows:
-    texts = list(map(_metres_to_mm_text, V.ravel().tolist()))
+    texts = list(map(metres_to_mm_text, V.ravel().tolist()))
     it = iter(texts)
     return _Rows(f"[{a},{b},{c}]" for a, b, c in zip(it, it, it))
 
@@ -194,7 +80,7 @@ def _angles_raw(a: np.ndarray) -> _Raw:
     for x in a.tolist():
         t = memo.get(x)
         if t is None:
-            t = _radians_to_degrees_text(x) or "null"
+            t = radians_to_degrees_text(x) or "null"
             if x == x:  # NaN is not a usable key
                 memo[x] = t
         out.append(t)
@@ -317,7 +203,7 @@ def fold_text(model: FoldModel, flavour: str = "compatible") -> str:
 
 def fold_to_json(model: FoldModel, flavour: str = "compatible") -> dict[str, Any]:
     """The FOLD 1.2 dictionary of a model, exactly as `save_fold` writes it (millimetres, degrees)."""
-    return json.loads(fold_text(model, flavour), parse_float=_Num)
+    return json.loads(fold_text(model, flavour), parse_float=Num)
 
 
 def save_fold(model: FoldModel, path: str | os.PathLike, flavour: str = "compatible") -> None:
@@ -349,14 +235,14 @@ def _coords(value: Any, key: str, unit: str, source: str) -> np.ndarray:
     if rows and all(type(r) is list for r in rows):
         lengths = {len(r) for r in rows}
         types = {type(c) for r in rows for c in r}
-        if lengths <= {2, 3} and types <= {int, _Num}:  # fast path: well-formed (checked, not assumed)
+        if lengths <= {2, 3} and types <= {int, Num}:  # fast path: well-formed (checked, not assumed)
             out = np.zeros((len(rows), 3))
             if lengths == {3} or lengths == {2}:
-                flat = [_to_si(c, unit) for r in rows for c in r]
+                flat = [to_si(c, unit) for r in rows for c in r]
                 out[:, :lengths.pop()] = np.array(flat).reshape(len(rows), -1)
             else:
                 for i, r in enumerate(rows):
-                    out[i, :len(r)] = [_to_si(c, unit) for c in r]
+                    out[i, :len(r)] = [to_si(c, unit) for c in r]
             bad = ~np.all(np.isfinite(out), axis=1)
             if not np.any(bad):
                 return check_coordinates(out, source, f"{key}: vertex")
@@ -364,7 +250,7 @@ def _coords(value: Any, key: str, unit: str, source: str) -> np.ndarray:
     for i, r in enumerate(rows):
         if not isinstance(r, list) or len(r) not in (2, 3) or not all(_is_number(c) for c in r):
             raise InputError(f"{key}[{i}] is {_short(r)}: a vertex needs 2 or 3 numbers", source=source)
-        if not all(math.isfinite(_to_si(c, unit)) for c in r):
+        if not all(math.isfinite(to_si(c, unit)) for c in r):
             raise InputError(f"{key}[{i}] is {_short(r)}: coordinates must be finite", source=source)
     return np.zeros((0, 3))
 
@@ -410,8 +296,8 @@ def _angles(value: Any, key: str, source: str) -> np.ndarray:
             raise InputError(f"{key}[{i}] is {_short(a)}: a fold angle is a finite number of degrees or null",
                              source=source)
         if abs(a) > 180:
-            raise InputError(f"{key}[{i}] is {_text(a)} deg, outside [-180, 180]", source=source)
-        out[i] = _degrees_to_radians(a)
+            raise InputError(f"{key}[{i}] is {number_text(a)} deg, outside [-180, 180]", source=source)
+        out[i] = degrees_to_radians(a)
     return out
 
 
@@ -450,7 +336,7 @@ def _data_array(value: Any, key: str, source: str) -> np.ndarray:
 
 def _show(x: Any, depth: int = 0) -> str:
     """JSON-like text of a value as the file wrote it (numbers keep their text)."""
-    if isinstance(x, _Num):
+    if isinstance(x, Num):
         return x.text
     if isinstance(x, list) and depth < 3:
         return "[" + ",".join(_show(v, depth + 1) for v in x[:8]) + (",...]" if len(x) > 8 else "]")
@@ -677,7 +563,7 @@ def load_fold(path: str | os.PathLike, *, repair: bool = False) -> FoldModel:
     if not text.strip():
         raise InputError("empty file (a FOLD file is a JSON object)", source=source)
     try:
-        d = json.loads(text, parse_float=_Num, parse_constant=_reject_constant)
+        d = json.loads(text, parse_float=Num, parse_constant=_reject_constant)
     except json.JSONDecodeError as exc:
         raise InputError(f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", source=source) from None
     except ValueError as exc:
