@@ -216,3 +216,19 @@ def standin_fixture(*args: str, unlock_delay: str = "0.2", external_ok: bool = F
             s.stop()
 
     return standin
+
+
+def demo_job_fixture():
+    """A module-scoped pytest fixture: the demo toolpath, its PATH.json and its real CHECK.json
+    (`(toolpath, path, check)`), written once per test module."""
+    import pytest
+
+    @pytest.fixture(scope="module")
+    def job(tmp_path_factory):
+        tp = demo_toolpath()
+        path, check = write_job(tmp_path_factory.mktemp("job"), tp)
+        assert json.loads(check.read_text())["ok"], "the demo toolpath must pass the real check"
+        return tp, path, check
+
+    return job
+

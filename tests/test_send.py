@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pytest
 
-from _ursim import CELL, ROOT, demo_toolpath, external_host, move_to, write_job, standin_fixture
+from _ursim import demo_job_fixture, CELL, ROOT, external_host, move_to, standin_fixture
 from fabkit.cli import main as fabkit_main
 
 pytestmark = pytest.mark.network
@@ -34,12 +34,7 @@ def host(standin):
     return external_host() or standin.host
 
 
-@pytest.fixture(scope="module")
-def job(tmp_path_factory):
-    tp = demo_toolpath()
-    path, check = write_job(tmp_path_factory.mktemp("job"), tp)
-    assert json.loads(check.read_text())["ok"], "the demo toolpath must pass the real check"
-    return tp, path, check
+job = demo_job_fixture()
 
 
 def test_send_runs_the_demo_toolpath_to_completion(standin, host, job, tmp_path, capsys):

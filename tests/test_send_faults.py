@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 
-from _ursim import CELL, demo_toolpath, external_host, free_loopback_hosts, move_to, write_job, standin_fixture
+from _ursim import demo_job_fixture, CELL, external_host, free_loopback_hosts, move_to, standin_fixture
 from fabkit.cli import main as fabkit_main
 
 pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not None,
@@ -19,10 +19,7 @@ pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not Non
 standin = standin_fixture("--cell", str(CELL), unlock_delay="0.2")
 
 
-@pytest.fixture(scope="module")
-def job(tmp_path_factory):
-    tp = demo_toolpath()
-    return (tp, *write_job(tmp_path_factory.mktemp("job"), tp))
+job = demo_job_fixture()
 
 
 @pytest.fixture(autouse=True)

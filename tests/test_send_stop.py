@@ -16,7 +16,7 @@ import time
 import numpy as np
 import pytest
 
-from _ursim import CELL, ROOT, StandIn, demo_toolpath, external_host, move_to, write_job
+from _ursim import demo_job_fixture, CELL, ROOT, StandIn, external_host, move_to
 
 pytestmark = [pytest.mark.network, pytest.mark.skipif(external_host() is not None,
                                                       reason="fault injection needs the stand-in")]
@@ -32,10 +32,7 @@ def standin(tmp_path_factory):
         s.stop()
 
 
-@pytest.fixture(scope="module")
-def job(tmp_path_factory):
-    tp = demo_toolpath()
-    return (tp, *write_job(tmp_path_factory.mktemp("job"), tp))
+job = demo_job_fixture()
 
 
 @pytest.fixture(autouse=True)
