@@ -175,9 +175,9 @@ def handle(ctrl, line: str, shutdown) -> dict:
         return {"ok": False, "error": str(exc)}
 
 
-def serve_admin(ctrl, listener: socket.socket, shutdown) -> None:
-    """Answer admin commands, one JSON reply per line."""
-    serve_lines(ctrl, listener, "admin", lambda text: (json.dumps(handle(ctrl, text, shutdown)), False),
+def serve_admin(ctrl, loop, listener: socket.socket, shutdown) -> None:
+    """Answer admin commands, one JSON reply per line (from the I/O loop `loop`)."""
+    serve_lines(ctrl, loop, listener, "admin", lambda text: (json.dumps(handle(ctrl, text, shutdown)), False),
                 too_long=lambda head: json.dumps({"ok": False, "error": f"line over {MAX_LINE} bytes"}))
 
 

@@ -56,7 +56,7 @@ def snapshot(ctrl) -> dict:
             "speed_fraction": ctrl.speed_fraction, "speed_scaling": ctrl.speed_scaling,
             "digital_in": 0, "digital_out": ctrl.digital_out, "analog_out": list(ctrl.analog_out),
             "safety_status_bits": ctrl.safety_status_bits, "payload": ctrl.payload,
-            "payload_cog": ctrl.payload_cog.copy(), "elbow": ctrl.output_getter("elbow_position")(),
+            "payload_cog": ctrl.payload_cog.copy(), "elbow": ctrl.elbow_position.copy(),
             "tool_output_mode": ctrl.tool_output_mode, "tool_do_modes": tuple(ctrl.tool_digital_output_modes),
         }
 

@@ -1,14 +1,9 @@
 """Client connections of the stand-in: a cap per port, one registry that shutdown closes, and
-bounded line framing for the text ports.
-
-Written by hand: the standard library's socketserver would bring its own shutdown model, while the
-stand-in stops every server through `ctrl.stopped`, closed listeners and `Clients.close_all()`.
-"""
+bounded line framing for the text ports (the I/O loop, io_loop.py, serves them)."""
 from __future__ import annotations
 
 import socket
 import threading
-from typing import Callable
 
 #: Clients served at once on one port; a client over the cap is accepted and closed at once.
 MAX_CLIENTS_PER_PORT = 32
@@ -17,16 +12,18 @@ MAX_LINE = 4096
 
 
 class Clients:
-    """The open client sockets of every port (under `Controller.lock`, see controller.py)."""
+    """The open client sockets of every port, under a lock of their own: a burst of connects and
+    disconnects must not queue on `Controller.lock`, which the tick takes every period."""
 
     def __init__(self, ctrl, limit: int = MAX_CLIENTS_PER_PORT):
         self.ctrl = ctrl
         self.limit = limit
         self._open: dict[str, set] = {}
         self.closed = False
+        self._lock = threading.Lock()
 
     def admit(self, port: str, sock: socket.socket) -> bool:
-        with self.ctrl.lock:
+        with self._lock:
             conns = self._open.setdefault(port, set())
             if self.closed or len(conns) >= self.limit:
                 return False
@@ -34,15 +31,15 @@ class Clients:
             return True
 
     def release(self, port: str, sock: socket.socket) -> None:
-        with self.ctrl.lock:
+        with self._lock:
             self._open.get(port, set()).discard(sock)
 
     def count(self, port: str | None = None) -> int:
-        with self.ctrl.lock:
+        with self._lock:
             return sum(len(v) for k, v in self._open.items() if port is None or k == port)
 
     def close_all(self) -> None:
-        with self.ctrl.lock:
+        with self._lock:
             self.closed = True
             socks = [s for conns in self._open.values() for s in conns]
             self._open.clear()
@@ -56,30 +53,6 @@ def close_socket(sock: socket.socket) -> None:
             op()
         except OSError:
             pass
-
-
-def accept_loop(ctrl, listener: socket.socket, port: str, serve: Callable[[socket.socket], None]) -> None:
-    """Accept clients until `ctrl.stopped` or the listener closes; `serve(sock)` runs in a thread per
-    client, inside the cap; the socket is closed and released when `serve` returns."""
-    def run(sock: socket.socket) -> None:
-        try:
-            serve(sock)
-        except Exception as exc:  # one client's bug or bad bytes must not reach the others
-            ctrl.log(f"{port} client: {type(exc).__name__}: {exc}: closing")
-        finally:
-            ctrl.clients.release(port, sock)
-            close_socket(sock)
-
-    while not ctrl.stopped:
-        try:
-            sock, _ = listener.accept()
-        except OSError:
-            return
-        if not ctrl.clients.admit(port, sock):
-            ctrl.log(f"{port}: more than {ctrl.clients.limit} clients: connection refused")
-            close_socket(sock)
-            continue
-        threading.Thread(target=run, args=(sock,), name=f"{port}-client", daemon=True).start()
 
 
 class LineReader:

@@ -6,12 +6,13 @@ running program (URScript's `sync()`), and streams RTDE data packages to every s
 connection.
 
 Ownership of shared state, one rule: every attribute of `Controller` (arm, registers, modes,
-programs, scheduled faults, the client registry, the RTDE connection list and input owners, the
+programs, scheduled faults, the RTDE connection list and input owners, the
 command record) and every value the tick thread reads from another thread (an RTDE connection's
 published output recipe and stream flags) is read and written only while holding
 `Controller.lock` (a re-entrant lock). What a connection keeps for itself (its receive buffer,
 its socket) belongs to that connection's thread. Sockets are written outside the lock, and the
-log has its own leaf lock (nothing is acquired under it), so no thread holds the controller lock
+log and the client registry (`clients.Clients`) have leaf locks of their own (nothing is acquired
+under them), so no thread holds the controller lock
 while it waits on a client. A lock rather than one event loop: the programs (ur_rtde's control
 script, URScript) are blocking threads on a real controller too, the tick must keep its period
 whatever a client does, and every server stays a small blocking loop.
@@ -138,22 +139,28 @@ class Controller:
         self._tcp_pose = np.zeros(6)
         self._tcp_speed = np.zeros(6)
         self._flange = np.eye(4)
+        self._elbow = np.zeros(3)
+        self._tcp_offset_pose = np.zeros(6)
         self._q_for_pose = None
         self._contact_depth = 0.0
         self._update_pose()
         self._thread = threading.Thread(target=self._tick_loop, name="ursim-tick", daemon=True)
+        self._interfaces_thread = threading.Thread(target=self._interfaces_loop, name="ursim-interfaces",
+                                                   daemon=True)
 
     # ---- lifecycle ---------------------------------------------------------------------------
     def start(self) -> None:
         self._thread.start()
+        self._interfaces_thread.start()
 
     def shutdown(self) -> None:
         self._stop.set()
         with self.lock:
             if self.program is not None:
                 self.program.kill("shutdown")
-        if self._thread.is_alive():
-            self._thread.join(timeout=2)
+        for thread in (self._thread, self._interfaces_thread):
+            if thread.is_alive():
+                thread.join(timeout=2)
 
     @property
     def stopped(self) -> bool:
@@ -229,7 +236,9 @@ class Controller:
         if self._q_for_pose is not None and np.array_equal(q, self._q_for_pose):
             self._tcp_speed = np.zeros(6)
             return
-        self._flange = K.fk(self.model, q)
+        frames = K.fk_frames(self.model, q)  # once per tick: the flange, and the elbow RTDE reports
+        self._flange = frames[6]
+        self._elbow = frames[3, :3, 3].copy()
         new = matrix_to_pose(self._flange @ self.tcp)
         if self._q_for_pose is not None:
             lin = (new[:3] - self._tcp_pose[:3]) / self.period
@@ -240,11 +249,17 @@ class Controller:
     def set_tcp(self, pose) -> None:
         with self.lock:
             self.tcp = pose_to_matrix(pose)
+            self._tcp_offset_pose = matrix_to_pose(self.tcp)
             self._q_for_pose = None
             self._update_pose()
 
     def tcp_offset_pose(self) -> np.ndarray:
-        return matrix_to_pose(self.tcp)
+        return self._tcp_offset_pose
+
+    @property
+    def elbow_position(self) -> np.ndarray:
+        """The elbow (DH frame 3) in the base frame at the last tick (RTDE `elbow_position`)."""
+        return self._elbow
 
     # ---- registers ---------------------------------------------------------------------------
     def read_input(self, name: str):
@@ -449,10 +464,23 @@ class Controller:
             with self.tick_cond:
                 self.tick_cond.notify_all()
             self._stream(k)
-            if self.interface_streams:
-                from sim.ursim.client_interfaces import stream_interfaces
 
-                stream_interfaces(self, k)
+    def _interfaces_loop(self) -> None:
+        """The 30001-30003 streams, in a thread of their own: however many clients they have, they
+        never delay the tick or its RTDE packages (a tick they miss is skipped, the newest sent)."""
+        from sim.ursim.client_interfaces import stream_interfaces
+
+        last = self.tick_index
+        while not self._stop.is_set():
+            k = self.wait_tick(last)
+            if k == last:
+                continue
+            last = k
+            if self.interface_streams:
+                try:
+                    stream_interfaces(self, k)
+                except Exception as exc:  # a bug here must not stop the streams for good
+                    self.log(f"stand-in error in the interface streams: {type(exc).__name__}: {exc}")
 
     def _stream(self, k: int) -> None:
         with self.lock:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import socket
 import threading
-import time
 from pathlib import Path
 
 from sim.ursim.lines import serve_lines
@@ -198,20 +197,21 @@ def _play(ctrl, programs_dir: Path | None) -> str:
     return "Starting program" if ctrl.start_program(program) else "Failed to execute: play"
 
 
-def serve_dashboard(ctrl, listener: socket.socket, programs_dir: Path | None = None, shutdown=None) -> None:
-    """Answer dashboard commands with the controller's replies; `quit` ends the client, `shutdown`
-    ends the client and then calls `shutdown()` (the stand-in stops)."""
+def serve_dashboard(ctrl, loop, listener: socket.socket, programs_dir: Path | None = None, shutdown=None) -> None:
+    """Answer dashboard commands with the controller's replies (late by the `slow` fault's delay);
+    `quit` ends the client, `shutdown` ends the client and then calls `shutdown()` (the stand-in
+    stops)."""
     def answer(text: str) -> tuple[str | None, bool]:
         reply = handle_command(ctrl, text, programs_dir)
         ctrl.log(f"dashboard: {text[:80]!r} -> {reply[:80]!r}")
-        with ctrl.lock:
-            delay = ctrl.reply_delay
-        if delay:
-            time.sleep(delay)
         low = text.lower()
         if low == "shutdown" and shutdown is not None:
             threading.Timer(0.05, shutdown).start()  # after the reply is on its way
         return reply, low in ("quit", "shutdown")
 
-    serve_lines(ctrl, listener, "dashboard", answer, banner=BANNER,
-                too_long=lambda head: f"could not understand: '{head}...'")
+    def delay() -> float:
+        with ctrl.lock:
+            return ctrl.reply_delay
+
+    serve_lines(ctrl, loop, listener, "dashboard", answer, banner=BANNER,
+                too_long=lambda head: f"could not understand: '{head}...'", delay=delay)

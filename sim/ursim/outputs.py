@@ -77,5 +77,5 @@ def _getters(ctrl) -> dict:
         "tool_mode": lambda: _JOINT_MODE_RUNNING[0] if ctrl.robot_mode == ROBOT_RUNNING else 255,
         "tool_temperature": lambda: 30.0, "target_moment": lambda: _ZERO6,
         "tcp_offset": lambda: ctrl.tcp_offset_pose(),
-        "elbow_position": lambda: K.fk_frames(ctrl.model, arm.q)[3, :3, 3],
+        "elbow_position": lambda: ctrl.elbow_position,
     }

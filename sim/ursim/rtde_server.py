@@ -25,8 +25,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.ursim.clients import accept_loop
-
 from sim.ursim.rtde_vars import INPUTS, OUTPUTS, TYPE_WIDTH, FrameReader, frame, record_format
 
 MAX_BACKLOG = 1 << 20
@@ -61,7 +59,8 @@ def _flatten(values, widths) -> list:
 
 
 class RTDEConnection:
-    """One client connection: its recipes, its reader thread and its share of the stream."""
+    """One client connection: its recipes, its frames as the I/O loop reads them, and its share of
+    the stream (written by the tick thread)."""
 
     def __init__(self, sock: socket.socket, ctrl):
         self.id = next(_ids)
@@ -78,6 +77,9 @@ class RTDEConnection:
         self.send_lock = threading.Lock()
         self.closed = False
         self.sent = 0
+        self.reader = FrameReader()
+        self.loop = None  # the I/O loop serving this connection (set on open)
+        self._reply_due = 0.0
 
     # ---- sending -------------------------------------------------------------------------------
     def _send(self, data: bytes) -> None:
@@ -119,6 +121,8 @@ class RTDEConnection:
         self.sent += 1
 
     def close(self) -> None:
+        """End the connection (from any thread): the socket is shut down at once, and the I/O loop,
+        which then reads its end, closes it and releases its client slot."""
         if self.closed:
             return
         self.closed = True
@@ -126,41 +130,41 @@ class RTDEConnection:
             self.sock.shutdown(socket.SHUT_RDWR)
         except OSError:
             pass
-        try:
-            self.sock.close()
-        except OSError:
-            pass
 
-    # ---- receiving -----------------------------------------------------------------------------
-    def serve(self) -> None:
-        """Read this client's packages until it closes (runs in the connection's thread)."""
-        reader = FrameReader()
+    # ---- receiving (the I/O loop's handler: io_loop.Handler) -----------------------------------
+    def on_open(self, conn) -> None:
+        self.loop = conn.loop
+        with self.ctrl.lock:
+            self.ctrl.rtde_conns.append(self)
+
+    def on_data(self, conn, data: bytes) -> None:
         try:
-            while not self.closed:
-                try:
-                    data = self.sock.recv(65536)
-                except OSError:
-                    break
-                if not data:
-                    break
-                for kind, payload in reader.feed(data):
-                    self._handle(kind, payload)
+            for kind, payload in self.reader.feed(data):
+                self._handle(kind, payload)
         except Exception as exc:  # a malformed stream ends this connection only
             self.ctrl.log(f"rtde client {self.id}: {type(exc).__name__}: {exc}")
-        finally:
             self.close()
-            with self.ctrl.lock:
-                if self in self.ctrl.rtde_conns:
-                    self.ctrl.rtde_conns.remove(self)
-                for name in [n for n, owner in self.ctrl.owners.items() if owner == self.id]:
-                    del self.ctrl.owners[name]
+            conn.loop.close(conn)
+
+    def on_close(self, conn) -> None:
+        self.close()
+        with self.ctrl.lock:
+            if self in self.ctrl.rtde_conns:
+                self.ctrl.rtde_conns.remove(self)
+            for name in [n for n, owner in self.ctrl.owners.items() if owner == self.id]:
+                del self.ctrl.owners[name]
 
     def _reply(self, kind: bytes, payload: bytes) -> None:
+        """Answer now, or as late as the `slow` fault says (replies stay in order)."""
         with self.ctrl.lock:
             delay = self.ctrl.reply_delay
-        if delay:
-            time.sleep(delay)
-        self._send(frame(kind, payload))
+        now = time.monotonic()
+        if delay <= 0 and self._reply_due <= now:
+            self._send(frame(kind, payload))
+            return
+        self._reply_due = max(now + delay, self._reply_due)
+        data = frame(kind, payload)
+        self.loop.call_at(self._reply_due, lambda: self._send(data))
 
     def _handle(self, kind: int, payload: bytes) -> None:
         ctrl = self.ctrl
@@ -261,13 +265,10 @@ class RTDEConnection:
         self.ctrl.apply_inputs(values)
 
 
-def serve_rtde(ctrl, listener: socket.socket) -> None:
-    """Accept RTDE clients (one reader thread each, within the client cap)."""
-    def client(sock: socket.socket) -> None:
+def serve_rtde(ctrl, loop, listener: socket.socket) -> None:
+    """Serve RTDE clients from the I/O loop `loop` (within the client cap)."""
+    def handler(sock: socket.socket) -> RTDEConnection:
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        conn = RTDEConnection(sock, ctrl)
-        with ctrl.lock:
-            ctrl.rtde_conns.append(conn)
-        conn.serve()
+        return RTDEConnection(sock, ctrl)
 
-    accept_loop(ctrl, listener, "rtde", client)
+    loop.listen(listener, "rtde", handler)

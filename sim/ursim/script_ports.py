@@ -14,9 +14,8 @@ from __future__ import annotations
 
 import re
 import socket
-import time
+from collections import deque
 
-from sim.ursim.clients import accept_loop
 from sim.ursim.control_script import ControlScript, is_control_script
 from sim.ursim.urscript import ScriptError, URScriptProgram, parse_program
 
@@ -47,22 +46,6 @@ def refuse(ctrl, text: str) -> None:
 #: A controller stops the running program when a new one arrives, then needs a moment to compile
 #: and start it (tens of ms for ur_rtde's 40-50 KB script); the stand-in waits this long (s).
 COMPILE_DELAY_S = 0.04
-
-
-def run_text(ctrl, text: str, port: int) -> None:
-    program = program_from_text(ctrl, text, f"port {port}")
-    if program is None:
-        ctrl.stop_program("a program that does not compile was sent")
-        return
-    ctrl.log(f"port {port}: program {program.name} received ({len(text)} bytes)")
-    if getattr(program, "secondary", False):
-        program.run_beside()
-        return
-    with ctrl.lock:
-        if ctrl.program is not None and ctrl.program.running:
-            ctrl.stop_program("replaced by a new program")
-    time.sleep(COMPILE_DELAY_S)
-    ctrl.start_program(program)
 
 
 class ScriptFramer:
@@ -144,41 +127,72 @@ class ScriptFramer:
             self.error = f"program over {self.max_script} bytes"
 
 
-def serve_script_text(ctrl, sock: socket.socket, port: int) -> None:
-    """Read URScript from one client until it closes (the caller closes the socket)."""
-    framer = ScriptFramer()
-    while not ctrl.stopped:
-        try:
-            data = sock.recv(65536)
-        except OSError:
-            return
-        if not data:
-            break
-        for text in framer.feed(data):
-            run_text(ctrl, text, port)
-        if framer.error:
-            refuse(ctrl, f"port {port}: {framer.error}: program refused, connection closed")
-            ctrl.stop_program("a program that does not compile was sent")
-            return
-    if framer.pending:
-        ctrl.log(f"port {port}: incomplete program discarded at disconnect ({framer.pending} bytes)")
+#: Programs of one client waiting for the one before them to start; more and the client is not read.
+MAX_QUEUED = 64
 
 
-def serve_script_port(ctrl, listener: socket.socket, key: str, port: int) -> None:
-    """Accept clients of one script port: stream what the port sends (client_interfaces) while
-    reading the URScript the client writes."""
-    from sim.ursim import client_interfaces as ci
+class ScriptHandler:
+    """One client of a script port: what the port streams (client_interfaces) plus the URScript
+    it writes. Each complete text is compiled at once; a program replaces the running one after
+    `COMPILE_DELAY_S`, and the client's next texts wait for that (in order, as on a controller)."""
 
-    def client(sock: socket.socket) -> None:
-        stream = ci.Stream(sock, key)
-        if key != "realtime":
-            sock.sendall(ci.version_message(ctrl) + ci.robot_state_message(ctrl))
-        with ctrl.lock:
-            ctrl.interface_streams.append(stream)
-        try:
-            serve_script_text(ctrl, sock, port)
-        finally:
+    def __init__(self, ctrl, key: str, port: int):
+        self.ctrl, self.key, self.port = ctrl, key, port
+        self.framer = ScriptFramer()
+        self.queue: deque[str] = deque()
+        self.starting = False
+        self.stream = None
+
+    def on_open(self, conn) -> None:
+        from sim.ursim import client_interfaces as ci
+
+        self.stream = ci.Stream(conn.sock, self.key)
+        if self.key != "realtime":
+            self.stream.offer(ci.version_message(self.ctrl) + ci.robot_state_message(self.ctrl))
+        with self.ctrl.lock:
+            self.ctrl.interface_streams.append(self.stream)
+
+    def on_data(self, conn, data: bytes) -> None:
+        self.queue.extend(self.framer.feed(data))
+        self._run_queued(conn)
+        if self.framer.error:
+            refuse(self.ctrl, f"port {self.port}: {self.framer.error}: program refused, connection closed")
+            self.ctrl.stop_program("a program that does not compile was sent")
+            conn.close_after_writes()
+
+    def _run_queued(self, conn) -> None:
+        ctrl = self.ctrl
+        while self.queue and not self.starting:
+            text = self.queue.popleft()
+            program = program_from_text(ctrl, text, f"port {self.port}")
+            if program is None:
+                ctrl.stop_program("a program that does not compile was sent")
+                continue
+            ctrl.log(f"port {self.port}: program {program.name} received ({len(text)} bytes)")
+            if getattr(program, "secondary", False):
+                program.run_beside()
+                continue
             with ctrl.lock:
-                ctrl.interface_streams.remove(stream)
+                if ctrl.program is not None and ctrl.program.running:
+                    ctrl.stop_program("replaced by a new program")
+            self.starting = True
+            conn.loop.call_later(COMPILE_DELAY_S, lambda: self._start(conn, program))
+        conn.pause_reading(len(self.queue) >= MAX_QUEUED)
 
-    accept_loop(ctrl, listener, key, client)
+    def _start(self, conn, program) -> None:
+        self.starting = False
+        if not self.ctrl.stopped:
+            self.ctrl.start_program(program)
+            self._run_queued(conn)
+
+    def on_close(self, conn) -> None:
+        with self.ctrl.lock:
+            if self.stream in self.ctrl.interface_streams:
+                self.ctrl.interface_streams.remove(self.stream)
+        if self.framer.pending:
+            self.ctrl.log(f"port {self.port}: incomplete program discarded at disconnect ({self.framer.pending} bytes)")
+
+
+def serve_script_port(ctrl, loop, listener: socket.socket, key: str, port: int) -> None:
+    """Serve one script port from the I/O loop `loop`."""
+    loop.listen(listener, key, lambda sock: ScriptHandler(ctrl, key, port))

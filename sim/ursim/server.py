@@ -10,6 +10,7 @@ from sim.ursim.admin import serve_admin
 from sim.ursim.clients import MAX_CLIENTS_PER_PORT
 from sim.ursim.controller import Controller, ControllerConfig
 from sim.ursim.dashboard import serve_dashboard
+from sim.ursim.io_loop import IOLoop
 from sim.ursim.rtde_server import serve_rtde
 from sim.ursim.script_ports import serve_script_port
 
@@ -36,7 +37,7 @@ class StandIn:
         self.done = threading.Event()
         # A busy client thread keeps the GIL for up to the switch interval (5 ms by default): far
         # more than the 2 ms period. A tenth of the period lets the tick thread in on time.
-        sys.setswitchinterval(min(sys.getswitchinterval(), self.ctrl.period / 10))
+        sys.setswitchinterval(min(sys.getswitchinterval(), self.ctrl.period / 40))
         ports = config.ports
         self._sockets = []
         try:
@@ -45,28 +46,25 @@ class StandIn:
         except OSError:
             self.close()
             raise
-        self.ctrl.start()
+        self.loop = IOLoop(self.ctrl)
         for key, sock in self._sockets:
             if key == "rtde":
-                target, args = serve_rtde, (self.ctrl, sock)
+                serve_rtde(self.ctrl, self.loop, sock)
             elif key == "dashboard":
-                target, args = serve_dashboard, (self.ctrl, sock, programs_dir, self.done.set)
+                serve_dashboard(self.ctrl, self.loop, sock, programs_dir, self.done.set)
             elif key == "admin":
-                target, args = serve_admin, (self.ctrl, sock, self.done.set)
+                serve_admin(self.ctrl, self.loop, sock, self.done.set)
             else:
-                target, args = serve_script_port, (self.ctrl, sock, key, ports[key])
-            threading.Thread(target=target, args=args, name=f"listen-{key}", daemon=True).start()
+                serve_script_port(self.ctrl, self.loop, sock, key, ports[key])
+        self.ctrl.start()
+        self.loop.start()
 
     def close(self) -> None:
-        for _, s in self._sockets:
-            for op in (lambda: s.shutdown(socket.SHUT_RDWR), s.close):  # shutdown wakes accept()
-                try:
-                    op()
-                except OSError:
-                    pass
-        self.ctrl.clients.close_all()  # every client of every port
-        with self.ctrl.lock:
-            conns = list(self.ctrl.rtde_conns)
-        for conn in conns:
-            conn.close()
+        loop = getattr(self, "loop", None)
+        if loop is not None:
+            loop.stop()  # closes every client of every port and the listeners
+        else:  # the listeners that were bound before one failed
+            for _, s in self._sockets:
+                s.close()
+        self.ctrl.clients.close_all()
         self.ctrl.shutdown()
