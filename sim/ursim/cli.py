@@ -51,7 +51,8 @@ def add_arguments(parser) -> None:
                         "stall:SECONDS, slow:DELAY[,EVERY]")
     parser.add_argument("--admin-port", type=int, default=30020, help="fault-injection admin port (default 30020)")
     parser.add_argument("--rt-priority", type=int, default=0, metavar="N",
-                        help="run the 500 Hz tick thread SCHED_FIFO at priority N, 1-99 (needs the privilege; "
+                        help="run the 500 Hz tick thread SCHED_FIFO at priority N, 1-99, and every other stand-in thread at 1 "
+                        "(needs the privilege; "
                         "default 0 = normal scheduling)")
     parser.add_argument("--robot-mode-data-46", action="store_true",
                         help="send the 46-byte robot mode sub-package of 3.2-3.4 on 30001/30002 instead of "

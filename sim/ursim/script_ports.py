@@ -74,20 +74,21 @@ class ScriptFramer:
     def feed(self, data: bytes) -> list[str]:
         if self.error:
             return []
-        buf = self._partial + data
+        buf = self._partial + data if self._partial else data
         cut = buf.rfind(b"\n") + 1  # complete lines: buf[:cut]
         self._partial = buf[cut:]
         out: list[str] = []
-        self._take(buf[:cut], out)
+        self._take(buf, cut, out)
         if self.error is None and len(self._partial) > self.max_line:
             self.error = f"script line over {self.max_line} bytes"
         return out
 
-    def _take(self, block: bytes, out: list[str]) -> None:
+    def _take(self, block: bytes, stop: int, out: list[str]) -> None:
+        """Take the complete lines `block[:stop]` (no copy of the block is made)."""
         pos = 0
-        while pos < len(block) and self.error is None:
+        while pos < stop and self.error is None:
             if self._program is None:
-                nl = block.index(b"\n", pos) + 1
+                nl = block.index(b"\n", pos, stop) + 1
                 line = block[pos:nl]
                 pos = nl
                 if not line.strip():
@@ -98,27 +99,28 @@ class ScriptFramer:
                 else:
                     out.append(line.decode("utf-8", "replace"))  # a bare statement runs as a program
                 continue
-            found = self._end_line(block, pos)
-            end = len(block) if found is None else found
+            found = self._end_line(block, pos, stop)
+            end = stop if found is None else found
             self._add(block[pos:end])
             pos = end
             if found is not None and self.error is None:
                 out.append(b"".join(self._program).decode("utf-8", "replace"))
                 self._program, self._size = None, 0
 
-    def _end_line(self, block: bytes, pos: int) -> int | None:
-        """The index after the first `end` line at or after line start `pos`, or None (candidates
-        found with bytes.find, at C speed; `block` ends with a newline)."""
+    def _end_line(self, block: bytes, pos: int, stop: int) -> int | None:
+        """The index after the first `end` line in `block[pos:stop]` (`pos` a line start), or None.
+        Candidates are found with bytes.find at C speed: `end` is rarer than the newline before
+        it, so it is the needle."""
         start = pos
         while True:
-            if block.startswith(b"end", start):
-                nl = block.index(b"\n", start)
-                if self._END_LINE.match(block, start, nl):
-                    return nl + 1
-            j = block.find(b"\nend", start)
+            j = block.find(b"end", start, stop)
             if j < 0:
                 return None
-            start = j + 1
+            if j == pos or block[j - 1] == 0x0A:  # at a line start
+                nl = block.index(b"\n", j, stop)
+                if self._END_LINE.match(block, j, nl):
+                    return nl + 1
+            start = j + 3
 
     def _add(self, chunk: bytes) -> None:
         self._program.append(chunk)

@@ -1,6 +1,7 @@
 """Start the controller stand-in: bind every port on one loopback address, start the threads."""
 from __future__ import annotations
 
+import os
 import socket
 import sys
 import threading
@@ -27,12 +28,25 @@ def _listen(host: str, port: int) -> socket.socket:
     return s
 
 
+def _realtime_threads() -> None:
+    """SCHED_FIFO 1 for this thread and so for every thread it starts (Linux threads inherit the
+    policy): a thread holding the GIL is then never preempted by the machine's ordinary processes
+    while the tick thread (SCHED_FIFO at `--rt-priority`) waits for it. Without the privilege the
+    threads stay at normal priority (the tick thread logs that)."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
+    except (PermissionError, OSError, AttributeError):
+        pass
+
+
 class StandIn:
     """A running stand-in: `Controller` plus its listeners. `close()` stops everything: listeners,
     every client connection, the running program and the tick. `done` is set by admin or dashboard
     `shutdown` (the CLI then closes and exits)."""
 
     def __init__(self, config: ControllerConfig, programs_dir: Path | None = None):
+        if config.rt_priority > 0:
+            _realtime_threads()
         self.ctrl = Controller(config)
         self.done = threading.Event()
         # A busy client thread keeps the GIL for up to the switch interval (5 ms by default): far
