@@ -147,10 +147,10 @@ class ControlScript:
         except Killed:
             return
         except (PlanError, ScriptError) as exc:
-            ctrl.runtime_error(str(exc))
+            ctrl.runtime_error(str(exc), self)
             return
         except Exception as exc:  # a bug in the emulation must not look like a hang
-            ctrl.runtime_error(f"stand-in error: {type(exc).__name__}: {exc}")
+            ctrl.runtime_error(f"stand-in error: {type(exc).__name__}: {exc}", self)
             return
         with ctrl.lock:
             if self.running:

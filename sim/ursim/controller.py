@@ -343,9 +343,14 @@ class Controller:
             self.arm.halt()
             self.paused = False
 
-    def runtime_error(self, text: str) -> None:
-        """A runtime error: the program stops (the controller's popup/log line)."""
+    def runtime_error(self, text: str, program=None) -> None:
+        """A runtime error of `program` (default: the running one): it stops (the controller's
+        popup/log line). A program that was already replaced only logs it: its error must not stop
+        the program that replaced it, nor the arm that program drives."""
         with self.lock:
+            if program is not None and program is not self.program:
+                self.log(f"runtime error in the replaced program {getattr(program, 'name', '?')}: {text}")
+                return
             self.last_error = text
             self.log(f"runtime error: {text}")
             if self.program is not None and self.program.running:

@@ -235,7 +235,7 @@ class URScriptProgram:
         except Killed:
             pass
         except PlanError as exc:
-            ctrl.runtime_error(str(exc))
+            ctrl.runtime_error(str(exc), self)
         finally:
             with ctrl.lock:
                 self.running = False
