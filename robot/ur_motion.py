@@ -148,18 +148,21 @@ class Profile:
         return np.clip(self.s[k] + np.clip(s, 0.0, L), 0.0, self.length), np.maximum(sd, 0.0)
 
 
-def time_law(lengths, vmax, amax) -> Profile:
+def time_law(lengths, vmax, amax, stops=None) -> Profile:
     """Time-optimal rest-to-rest profile over pieces of path length `lengths` with speed caps `vmax`
-    and accelerations `amax` (all (m,), in the path parameter's units)."""
+    and accelerations `amax` (all (m,), in the path parameter's units); `stops` (m+1,) True where
+    the arm must also be at rest on a piece boundary (several runs timed as one profile)."""
     L = np.maximum(np.asarray(lengths, dtype=np.float64), 0.0)
     V = np.asarray(vmax, dtype=np.float64)
     A = np.asarray(amax, dtype=np.float64)
     m = len(L)
-    if np.any(A <= 0) or np.any(V < 0):
+    if not (np.all(A > 0) and np.all(V >= 0)):
         raise ValueError("speeds must be >= 0 and accelerations > 0")
     cap = np.zeros(m + 1)
     if m > 1:
         cap[1:-1] = np.minimum(V[:-1], V[1:])
+    if stops is not None:
+        cap[np.asarray(stops, dtype=bool)] = 0.0
     v2 = (cap ** 2).tolist()
     reach = (2 * A * L).tolist()
     for k in range(m):  # forward: what the arm can reach accelerating
