@@ -443,10 +443,36 @@ def segment_times(moves, positions, rotations, joints, v, a, r, accel_bound=np.i
     """
     n = len(moves)
     out = np.zeros(max(n - 1, 0))
+    if n < 2:
+        return out
     bound = np.broadcast_to(np.asarray(accel_bound, dtype=np.float64), (n,))
-    for first, last in run_bounds(moves, r):
+    runs = run_bounds(moves, r)
+    single = np.array([first for first, last in runs if last == first + 1], dtype=np.int64)
+    if len(single):  # one-move runs, vectorised: a rest-to-rest trapezoid over the move's path length
+        out[single] = _single_move_times(moves, positions, rotations, joints, v, a, bound, single)
+    for first, last in runs:
+        if last == first + 1:
+            continue
         geom = run_geometry(moves, positions, rotations, joints, v, a, r, first, last,
                             float(np.min(bound[first + 1:last + 1])))
         prof = geom.profile()
         out[first:last] = np.diff(prof.time_at(geom.corner))
     return out
+
+
+def _single_move_times(moves, positions, rotations, joints, v, a, bound, i) -> np.ndarray:
+    """Durations of the moves i -> i+1 that are runs of their own (the time law of one piece)."""
+    P, R, Q = np.asarray(positions, dtype=np.float64), np.asarray(rotations, dtype=np.float64), \
+        np.asarray(joints, dtype=np.float64)
+    travel = np.linalg.norm(P[i + 1] - P[i], axis=1)
+    ang = Rotation.from_matrix(np.swapaxes(R[i], 1, 2) @ R[i + 1]).magnitude()
+    linear = np.asarray(moves)[i + 1] == "movel"
+    length = np.where(linear, np.where(travel > MIN_TRANSLATION, np.maximum(travel, ang), ang),
+                      np.max(np.abs(Q[i + 1] - Q[i]), axis=1))
+    vv = np.asarray(v, dtype=np.float64)[i + 1]
+    aa = np.asarray(a, dtype=np.float64)[i + 1]
+    aa = np.where(linear, aa, np.minimum(aa, bound[i + 1]))
+    if not (np.all(aa > 0) and np.all(vv > 0)):
+        raise ValueError("speeds and accelerations must be > 0")
+    full = length >= vv * vv / aa
+    return np.where(full, length / vv + vv / aa, 2.0 * np.sqrt(length / aa))
