@@ -15,9 +15,11 @@ segment are an error (`BlendOverlap`), as on a controller ("blends cannot overla
 
 Path parameter and speeds: movej measures its path by the largest joint move (rad), so `v` and `a`
 bound the leading joint; movel by the larger of the TCP travel (m) and the tool rotation (rad) of a
-segment, so `v` bounds both. A blend is taken at the smaller `v` and `a` of its two segments.
+segment, so `v` bounds both. A blend is taken at the smaller `v` and `a` of its two segments and
+measured so that the speed is continuous where it meets them (joint blends by their largest joint
+move, movel blends by TCP travel weighted from one segment's path-per-metre to the other's).
 
-Time law (`time_law`): the time-optimal profile along the run's path parameter with each piece's
+Time law (`time_law`, in `robot.time_law`): the time-optimal profile along the run's path parameter with each piece's
 speed limit and acceleration, starting and ending at rest: accelerate, cruise, decelerate per
 piece, exact for piecewise-constant limits (forward/backward passes over the piece boundaries).
 A run too short to reach its speed follows a triangle profile.
@@ -39,6 +41,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+
+from robot.time_law import Profile, time_law
 
 __all__ = ["JOINT_ACCEL_MAX", "PAYLOAD_ACCEL_DERATE", "MIN_TRANSLATION", "MIN_BLEND_SEGMENT", "BlendOverlap",
            "PayloadError", "joint_accel_bound", "stretch_factor", "Profile", "time_law", "RunGeometry",
@@ -82,106 +86,6 @@ def stretch_factor(peak_accel: float, bound: float) -> float:
     if not (peak_accel > bound > 0):
         return 1.0
     return float(np.sqrt(peak_accel / bound))
-
-
-# ---- time law ------------------------------------------------------------------------------------
-
-@dataclass(frozen=True, eq=False)
-class Profile:
-    """Time law of one run: `s` (m+1,) piece boundaries along the path parameter, `vb` (m+1,) speed at
-    each boundary, per piece (m,): cap `vmax`, acceleration `amax`, peak speed `vp`, times of the
-    acceleration / cruise / deceleration phases `ta`, `tc`, `td`; `t` (m+1,) boundary times."""
-
-    s: np.ndarray
-    vb: np.ndarray
-    vmax: np.ndarray
-    amax: np.ndarray
-    vp: np.ndarray
-    ta: np.ndarray
-    tc: np.ndarray
-    td: np.ndarray
-    t: np.ndarray
-
-    @property
-    def duration(self) -> float:
-        return float(self.t[-1])
-
-    @property
-    def length(self) -> float:
-        return float(self.s[-1])
-
-    def _piece(self, x, edges):
-        return np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(self.vmax) - 1)
-
-    def time_at(self, s) -> np.ndarray:
-        """Times (s) at which the run passes path parameters `s`."""
-        s = np.clip(np.asarray(s, dtype=np.float64), 0.0, self.length)
-        k = self._piece(s, self.s)
-        x = s - self.s[k]
-        v0, v1, a, vp = self.vb[k], self.vb[k + 1], self.amax[k], self.vp[k]
-        da = (vp ** 2 - v0 ** 2) / (2 * a)
-        dd = (vp ** 2 - v1 ** 2) / (2 * a)
-        L = self.s[k + 1] - self.s[k]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            t_acc = (np.sqrt(np.maximum(v0 ** 2 + 2 * a * x, 0.0)) - v0) / a
-            t_cru = self.ta[k] + (x - da) / np.where(vp > 0, vp, 1.0)
-            y = np.maximum(L - x, 0.0)
-            t_dec = self.ta[k] + self.tc[k] + self.td[k] - (np.sqrt(np.maximum(v1 ** 2 + 2 * a * y, 0.0)) - v1) / a
-        local = np.where(x <= da, t_acc, np.where(x <= L - dd, t_cru, t_dec))
-        return self.t[k] + np.where(L > 0, local, 0.0)
-
-    def state_at(self, t) -> tuple[np.ndarray, np.ndarray]:
-        """Path parameter and its rate at times `t` (clipped to the run)."""
-        t = np.clip(np.asarray(t, dtype=np.float64), 0.0, self.duration)
-        k = self._piece(t, self.t)
-        tau = t - self.t[k]
-        v0, v1, a, vp = self.vb[k], self.vb[k + 1], self.amax[k], self.vp[k]
-        ta, tc, td = self.ta[k], self.tc[k], self.td[k]
-        L = self.s[k + 1] - self.s[k]
-        da = (vp ** 2 - v0 ** 2) / (2 * a)
-        tr = np.maximum(ta + tc + td - tau, 0.0)
-        s_acc, v_acc = v0 * tau + 0.5 * a * tau ** 2, v0 + a * tau
-        s_cru, v_cru = da + vp * (tau - ta), vp
-        s_dec, v_dec = L - (v1 * tr + 0.5 * a * tr ** 2), v1 + a * tr
-        s = np.where(tau <= ta, s_acc, np.where(tau <= ta + tc, s_cru, s_dec))
-        sd = np.where(tau <= ta, v_acc, np.where(tau <= ta + tc, v_cru, v_dec))
-        return np.clip(self.s[k] + np.clip(s, 0.0, L), 0.0, self.length), np.maximum(sd, 0.0)
-
-
-def time_law(lengths, vmax, amax, stops=None) -> Profile:
-    """Time-optimal rest-to-rest profile over pieces of path length `lengths` with speed caps `vmax`
-    and accelerations `amax` (all (m,), in the path parameter's units); `stops` (m+1,) True where
-    the arm must also be at rest on a piece boundary (several runs timed as one profile)."""
-    L = np.maximum(np.asarray(lengths, dtype=np.float64), 0.0)
-    V = np.asarray(vmax, dtype=np.float64)
-    A = np.asarray(amax, dtype=np.float64)
-    m = len(L)
-    if not (np.all(A > 0) and np.all(V >= 0)):
-        raise ValueError("speeds must be >= 0 and accelerations > 0")
-    cap = np.zeros(m + 1)
-    if m > 1:
-        cap[1:-1] = np.minimum(V[:-1], V[1:])
-    if stops is not None:
-        cap[np.asarray(stops, dtype=bool)] = 0.0
-    v2 = (cap ** 2).tolist()
-    reach = (2 * A * L).tolist()
-    for k in range(m):  # forward: what the arm can reach accelerating
-        v2[k + 1] = min(v2[k + 1], v2[k] + reach[k])
-    for k in range(m - 1, -1, -1):  # backward: what it can still stop from
-        v2[k] = min(v2[k], v2[k + 1] + reach[k])
-    vb2 = np.asarray(v2)
-    vb = np.sqrt(vb2)
-    vp = np.minimum(V, np.sqrt(np.maximum(A * L + 0.5 * (vb2[:-1] + vb2[1:]), 0.0)))
-    vp = np.maximum(vp, np.maximum(vb[:-1], vb[1:]))  # rounding: never below the boundary speeds
-    ta = (vp - vb[:-1]) / A
-    td = (vp - vb[1:]) / A
-    cruise = L - (2 * vp ** 2 - vb2[:-1] - vb2[1:]) / (2 * A)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        tc = np.where(vp > 0, np.maximum(cruise, 0.0) / vp, 0.0)
-    if np.any((L > 0) & (vp <= 0)):
-        raise ValueError("the path cannot be run: a speed cap is zero along it")
-    t = np.r_[0.0, np.cumsum(ta + tc + td)]
-    return Profile(s=np.r_[0.0, np.cumsum(L)], vb=vb, vmax=V, amax=A, vp=vp, ta=ta, tc=tc, td=td, t=t)
 
 
 # ---- geometry ------------------------------------------------------------------------------------
@@ -263,12 +167,19 @@ def _bezier(A, P, C, u):
     return (1 - u) ** 2 * A + 2 * u * (1 - u) * P + u ** 2 * C
 
 
-def _bezier_lengths(A, P, C) -> np.ndarray:
-    """Cumulative arc length tables (nb, _BEZIER_TABLE) of quadratic Beziers A-P-C (nb, d)."""
+def _bezier_lengths(A, P, C, rho_in=None, rho_out=None, joint: bool = False) -> np.ndarray:
+    """Path-parameter tables (nb, _BEZIER_TABLE) of quadratic Beziers A-P-C (nb, d): cumulative
+    length (Euclidean; the largest component for joint blends, as movej measures its lines),
+    weighted by a path-per-metre ratio going linearly from `rho_in` to `rho_out` (nb,) so that the
+    speed along the path is continuous where the blend meets its segments."""
     u = np.linspace(0.0, 1.0, _BEZIER_TABLE)
     pts = _bezier(A[:, None], P[:, None], C[:, None], np.broadcast_to(u, (len(A), len(u))))
-    return np.concatenate([np.zeros((len(A), 1)), np.cumsum(np.linalg.norm(np.diff(pts, axis=1), axis=2), axis=1)],
-                          axis=1)
+    step = np.diff(pts, axis=1)
+    ds = np.max(np.abs(step), axis=2) if joint else np.linalg.norm(step, axis=2)
+    if rho_in is not None:
+        mid = 0.5 * (u[1:] + u[:-1])
+        ds = ds * ((1 - mid)[None] * rho_in[:, None] + mid[None] * rho_out[:, None])
+    return np.concatenate([np.zeros((len(A), 1)), np.cumsum(ds, axis=1)], axis=1)
 
 
 def _assemble(kind, plen, v, a, before, after, blend_len, nodes, **extra) -> RunGeometry:
@@ -309,7 +220,7 @@ def joint_run(Q, P, v, a, r, accel_bound: float = np.inf) -> RunGeometry:
         c = np.arange(1, k)
         A = Q[c] - d[c - 1] * before[c][:, None]
         C = Q[c] + d[c] * after[c][:, None]
-        tables = _bezier_lengths(A, Q[c], C)
+        tables = _bezier_lengths(A, Q[c], C, joint=True)
         blend_len = np.maximum(tables[:, -1], 1e-12)
     aa = np.minimum(np.asarray(a, dtype=np.float64)[1:], accel_bound)
     return _assemble("movej", plen, np.asarray(v, dtype=np.float64)[1:], aa, before, after, blend_len, Q,
@@ -335,11 +246,9 @@ def cart_run(P, R, v, a, r) -> RunGeometry:
         c = np.arange(1, k)
         A = P[c] - d[c - 1] * before[c][:, None]
         C = P[c] + d[c] * after[c][:, None]
-        tables = _bezier_lengths(A, P[c], C)
-        RA = rots[c - 1] * Rotation.from_rotvec(rotvec[c - 1] * (1 - before[c])[:, None])
-        RC = rots[c] * Rotation.from_rotvec(rotvec[c] * after[c][:, None])
-        blend_len = np.maximum(tables[:, -1], (RA.inv() * RC).magnitude())
-        blend_len = np.maximum(blend_len, 1e-12)
+        rho = plen / np.where(trans, travel, 1.0)  # path per metre of travel on each segment (>= 1)
+        tables = _bezier_lengths(A, P[c], C, rho[c - 1], rho[c])
+        blend_len = np.maximum(tables[:, -1], 1e-12)
     return _assemble("movel", plen, np.asarray(v, dtype=np.float64)[1:], np.asarray(a, dtype=np.float64)[1:],
                      before, after, blend_len, P, rotations=rots, rotvec=rotvec, tables=tables)
 

@@ -61,7 +61,8 @@ class RunSamples:
     own configuration); `state_seg`, `state_frac` where the sample lies along the program's
     segments (for the fold state); `v` (m,) speed cap of the piece (path units/s); `end_q` the
     joints where the run ends (None if it left the workspace); `unreachable_at` the program
-    waypoint whose move left the workspace and the fraction of the way, or None."""
+    waypoint whose move left the workspace and the fraction of the way, or None; `geometry` the
+    run's `robot.ur_motion.RunGeometry`."""
 
     q: np.ndarray
     s: np.ndarray
