@@ -196,3 +196,13 @@ def test_payload_over_the_rating_is_refused(cell):
         toolpath_cycle_time(_fast_movej(cell, 5.5))
     with pytest.raises(InputError, match="rated payload"):
         program_from_toolpath(_fast_movej(cell, 5.5), cell)
+
+
+def test_overlapping_blends_are_a_check_problem_as_on_the_controller(cell):
+    tp = _blended_square(cell, r=0.07)  # 70 mm blends on 100-120 mm sides: neighbours overlap
+    prog = program_from_toolpath(tp, cell)
+    dense = interpolate_program(cell.model, prog)
+    assert [(e.kind, e.subject) for e in dense.events] == [("unreachable", "blend")]
+    assert "blends cannot overlap" in dense.events[0].detail
+    with pytest.raises(U.BlendOverlap):
+        toolpath_cycle_time(tp)
