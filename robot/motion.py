@@ -3,12 +3,11 @@
 Units: movel speeds in m/s and accelerations in m/s^2 (TCP); movej speeds in rad/s and rad/s^2
 (joints); blend radii in metres (TCP); times in seconds.
 
-Timing model (an estimate, not the controller's planner): a *run* is a stretch of moves of one
-kind between two stops (a waypoint with r = 0 is a stop). Each run follows a trapezoidal profile:
-it accelerates at `a` to the segment speeds, cruises, and decelerates to the stop; blended corners
-inside a run are taken at speed. A run too short to reach its speed follows a triangle profile.
-A movel segment's duration also respects rotation: UR interpolates orientation alongside
-position, so a segment whose rotation dominates is timed with the same numbers read as rad/s.
+Timing is `robot.ur_motion`'s model of how the controller executes the program (the model the
+checker and the controller stand-in use): runs between stops, blends as Bezier pieces taken at the
+slower of their two segments' speeds, the time-optimal trapezoidal time law per run, and movej
+accelerations capped by the joint acceleration bound of the payload declared at each move
+(`payload_accel_bounds`). Times are at full speed slider (the slider f divides them by f).
 """
 from __future__ import annotations
 
@@ -16,8 +15,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from robot import ur_motion
+
 __all__ = ["MotionParams", "limited_params", "trapezoid_time", "blend_radii", "blend_overlaps",
-           "segment_times", "joint_speed_estimates", "CycleTime", "cycle_time"]
+           "segment_times", "payload_accel_bounds", "joint_speed_estimates", "CycleTime", "cycle_time",
+           "toolpath_cycle_time"]
 
 
 @dataclass(frozen=True)
@@ -86,50 +88,41 @@ def blend_overlaps(points: np.ndarray, radii: np.ndarray) -> np.ndarray:
     return np.flatnonzero(r[:-1] + r[1:] > seg * (1 + 1e-12))
 
 
-def segment_times(moves, positions, rotations, joints, v, a, r) -> np.ndarray:
-    """Duration [s] of each segment i -> i+1 (`n - 1` values) under the module's timing model.
+def segment_times(moves, positions, rotations, joints, v, a, r, accel_bound=np.inf) -> np.ndarray:
+    """Duration [s] of each segment i -> i+1 (`n - 1` values): from passing waypoint i to passing
+    waypoint i+1 (the middle of its blend) by `robot.ur_motion.segment_times`.
 
     moves (n,) "movej"|"movel" (the move *to* each waypoint); positions (n, 3) TCP [m];
     rotations (n, 3, 3) TCP orientation; joints (n, 6) [rad]; v, a, r (n,) per waypoint (the
-    parameters of the move to it).
+    parameters of the move to it); accel_bound: joint acceleration bound [rad/s^2], scalar or (n,)
+    (`payload_accel_bounds`).
     """
-    n = len(moves)
-    if n < 2:
-        return np.zeros(0)
-    P = np.asarray(positions, dtype=np.float64)
-    R = np.asarray(rotations, dtype=np.float64)
-    Q = np.asarray(joints, dtype=np.float64)
-    v = np.asarray(v, dtype=np.float64)
-    a = np.asarray(a, dtype=np.float64)
-    r = np.asarray(r, dtype=np.float64)
-    lin = np.linalg.norm(np.diff(P, axis=0), axis=1)
-    cosang = np.clip((np.einsum("nij,nij->n", R[:-1], R[1:]) - 1.0) / 2.0, -1.0, 1.0)
-    ang = np.arccos(cosang)
-    joint = np.max(np.abs(np.diff(Q, axis=0)), axis=1)
-    # distance each segment covers in its own units (movel: m, or rad if rotation dominates; movej: rad)
-    dist = np.where(np.asarray(moves[1:]) == "movel", np.maximum(lin, ang), joint)
-    vs, as_ = v[1:], a[1:]
-    t = np.zeros(n - 1)
-    # runs: consecutive segments of one kind with no stop in between
-    start = 0
-    while start < n - 1:
-        end = start
-        while (end + 1 < n - 1 and r[end + 1] > 0 and moves[end + 2] == moves[end + 1]):
-            end += 1
-        seg = slice(start, end + 1)
-        d, vv, aa = dist[seg], vs[seg], as_[seg]
-        total = d.sum()
-        cruise = d / vv
-        if total >= vv[0] ** 2 / (2 * aa[0]) + vv[-1] ** 2 / (2 * aa[-1]):
-            extra = np.zeros_like(d)
-            extra[0] += vv[0] / (2 * aa[0])
-            extra[-1] += vv[-1] / (2 * aa[-1])
-            t[seg] = cruise + extra
-        else:  # triangle profile over the whole run, shared in proportion to distance
-            tt = 2.0 * np.sqrt(total / aa.min()) if total > 0 else 0.0
-            t[seg] = tt * (d / total) if total > 0 else 0.0
-        start = end + 1
-    return t
+    return ur_motion.segment_times(np.asarray(moves), positions, rotations, joints, v, a, r, accel_bound)
+
+
+def payload_accel_bounds(ops, payload: dict | None, model: str) -> np.ndarray:
+    """Joint acceleration bound [rad/s^2] of the move to each waypoint under the payload the
+    program declares (`robot.loads.payload_record`: the tool alone before the grip and after the
+    release, tool + panel on the moves after the grip up to the release); the unloaded bound where
+    no payload is declared. `robot.ur_motion.PayloadError` for a payload over the arm's rating."""
+    n = len(ops)
+    if not payload:
+        return np.full(n, ur_motion.JOINT_ACCEL_MAX)
+    from robot.loads import arm_rating
+
+    rated = arm_rating(model).payload
+    tool = ur_motion.joint_accel_bound(float(payload["tool_mass_kg"]), rated)
+    held = ur_motion.joint_accel_bound(float(payload["held_mass_kg"]), rated)
+    out = np.full(n, tool)
+    holding = False
+    for i, op in enumerate(ops):
+        if holding:
+            out[i] = held
+        if op == "grip":
+            holding = True
+        elif op == "release":
+            holding = False
+    return out
 
 
 def joint_speed_estimates(joints: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -141,7 +134,7 @@ def joint_speed_estimates(joints: np.ndarray, times: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class CycleTime:
-    """Cycle-time estimate: `total` [s] = motion + dwell; `segments` (n-1,) motion time per segment."""
+    """Cycle time: `total` [s] = motion + dwell; `segments` (n-1,) motion time per segment."""
 
     total: float
     motion: float
@@ -149,8 +142,25 @@ class CycleTime:
     segments: np.ndarray
 
 
-def cycle_time(moves, positions, rotations, joints, v, a, r, dwell) -> CycleTime:
-    """Cycle-time estimate of a waypoint list (`segment_times`) plus per-waypoint dwell [s]."""
-    seg = segment_times(moves, positions, rotations, joints, v, a, r)
+def cycle_time(moves, positions, rotations, joints, v, a, r, dwell, accel_bound=np.inf) -> CycleTime:
+    """Cycle time of a waypoint list (`segment_times`) plus per-waypoint dwell [s]."""
+    seg = segment_times(moves, positions, rotations, joints, v, a, r, accel_bound)
     dwell_total = float(np.sum(dwell))
     return CycleTime(total=float(seg.sum()) + dwell_total, motion=float(seg.sum()), dwell=dwell_total, segments=seg)
+
+
+def toolpath_cycle_time(tp) -> CycleTime:
+    """Cycle time of a `robot.toolpath.Toolpath` as the controller runs it at full speed slider: its
+    waypoints' motion (with the payload rule when it declares a `payload`) plus the grip and release
+    dwells."""
+    from robot.cell import pose_to_matrix
+
+    W = tp.waypoints
+    T = np.array([pose_to_matrix(w.pose) for w in W])
+    ops = [w.op for w in W]
+    grip = tp.extra.get("grip", {}) or {}
+    dwell = [float(grip.get("grip_dwell_s", 0.0)) if o == "grip" else
+             float(grip.get("release_dwell_s", 0.0)) if o == "release" else 0.0 for o in ops]
+    return cycle_time([w.move for w in W], T[:, :3, 3], T[:, :3, :3], np.array([w.q for w in W], dtype=np.float64),
+                      np.array([w.v for w in W]), np.array([w.a for w in W]), np.array([w.r for w in W]), dwell,
+                      payload_accel_bounds(ops, tp.extra.get("payload"), tp.robot))

@@ -3,9 +3,9 @@
 Every waypoint and the motion between waypoints is checked at interpolated configurations
 (`sim.interpolate`: steps of `CheckSettings.step_joint_rad` joint motion, `step_tcp_m` TCP travel,
 `step_rot_rad` tool rotation) with the panel posed at the fold state interpolated alongside, for
-reach, joint limits, singularities, collisions, clearance and speeds (`sim.check_events`). Blends
-(`r`) are not modelled: the check follows the corners exactly, which a blended path cuts by at most
-`r` (the report notes it).
+reach, joint limits, singularities, collisions, clearance and speeds (`sim.check_events`). Blended
+moves are checked on the path the controller drives (`robot.ur_motion`'s blends, which cut each
+corner by less than its radius `r`), and the cycle time is that model's.
 
 Problems found at interpolated configurations belong to the move's target waypoint (the move
 instruction that causes them); problems at a waypoint's own configuration belong to it. Runs of
@@ -90,15 +90,21 @@ class CheckReport:
 
 
 def cycle_time(prog: Program, dwell=None) -> float:
-    """Program duration (s) by `robot.motion`'s timing model (trapezoidal runs between stops) plus
-    per-waypoint dwell (s)."""
+    """Program duration (s) by `robot.ur_motion`'s model of the controller (the planner's and the
+    stand-in's) at full speed slider, with the payload's joint acceleration bound, plus per-waypoint
+    dwell (s)."""
     from robot.motion import segment_times
+    from robot.ur_motion import JOINT_ACCEL_MAX
 
     if len(prog) < 2 or not np.isfinite(prog.q).all():
         return math.nan
     r = prog.r if prog.r is not None else np.zeros(len(prog))
-    seg = segment_times(np.asarray(prog.moves), prog.poses[:, :3, 3], prog.poses[:, :3, :3], prog.q,
-                        prog.v, prog.a, r)
+    bound = JOINT_ACCEL_MAX if prog.accel_bound is None else prog.accel_bound
+    try:
+        seg = segment_times(np.asarray(prog.moves), prog.poses[:, :3, 3], prog.poses[:, :3, :3], prog.q,
+                            prog.v, prog.a, r, bound)
+    except ValueError:  # overlapping blends or a zero speed: the program cannot be timed (reported)
+        return math.nan
     return float(seg.sum()) + (0.0 if dwell is None else float(np.sum(dwell)))
 
 
@@ -122,8 +128,8 @@ def check_program(prog: Program, cell, panel: PanelModel | None = None,
     if panel is None:
         notes.append("no panel geometry: the robot was checked against the cell's obstacles only")
     if prog.r is not None and len(prog.r) and float(np.max(prog.r)) > 0:
-        notes.append(f"blends are not modelled: the checked path takes the corners exactly, a blended "
-                     f"path cuts them by up to r = {float(np.max(prog.r)) * 1e3:.1f} mm")
+        notes.append(f"blended moves checked on the blended path the controller drives (corners cut by up to "
+                     f"r = {float(np.max(prog.r)) * 1e3:.1f} mm)")
     if panel is not None and panel.fit_residual is not None and panel.fit_residual.size:
         notes.append(f"panel faces follow their fold states rigidly to {panel.fit_residual.max() * 1e3:.3f} mm")
     report = CheckReport(

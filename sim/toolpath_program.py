@@ -13,7 +13,9 @@ import numpy as np
 
 from fabkit.errors import InputError
 from robot.cell import file_sha256, pose_to_matrix
+from robot.motion import payload_accel_bounds
 from robot.toolpath import fold_file_of
+from robot.ur_motion import PayloadError
 from sim.interpolate import Program
 from sim.panel import DEFAULT_THICKNESS, PanelModel, check_fold_coordinates, panel_from_fold
 
@@ -39,13 +41,17 @@ def program_from_toolpath(tp, cell, sha256: str | None = None) -> Program:
         raise InputError("grip: expected an object with grip_dwell_s and release_dwell_s in seconds (0..60)")
     dwell = np.array([float(grip.get("grip_dwell_s", 0.0)) if w.op == "grip" else
                       float(grip.get("release_dwell_s", 0.0)) if w.op == "release" else 0.0 for w in W])
+    try:
+        bound = payload_accel_bounds(tuple(w.op for w in W), tp.extra.get("payload"), tp.robot)
+    except (PayloadError, KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"payload: {exc}") from None
     states = fold_progress(np.array([w.state for w in W], dtype=np.float64), tuple(w.op for w in W),
                            poses[:, :3, 3])
     return Program(poses=poses, q=np.array([w.q for w in W], dtype=np.float64).reshape(-1, 6),
                    moves=tuple(w.move for w in W), v=np.array([w.v for w in W], dtype=np.float64),
                    a=np.array([w.a for w in W], dtype=np.float64), states=states, tcp=tcp,
                    ops=tuple(w.op for w in W), sha256=sha256 if sha256 is not None else tp.sha256,
-                   r=np.array([w.r for w in W], dtype=np.float64), dwell=dwell)
+                   r=np.array([w.r for w in W], dtype=np.float64), dwell=dwell, accel_bound=bound)
 
 
 def fold_progress(states: np.ndarray, ops, positions: np.ndarray) -> np.ndarray:

@@ -64,6 +64,11 @@ def test_5052_program_overbends_and_sets_the_payload(reflect_fold, tmp_path):
     area = model.mesh().face_areas.sum()
     assert pay["panel_mass_kg"] == pytest.approx(2680 * 1e-3 * area, rel=1e-9)
     assert pay["held_mass_kg"] == pytest.approx(1.2 + pay["panel_mass_kg"], rel=1e-12)
+    # the cycle time is the motion model's with the payload rule (robot.ur_motion.joint_accel_bound)
+    from robot.motion import toolpath_cycle_time
+    from robot.toolpath import Toolpath
+
+    assert doc["cycle_time_s"] == pytest.approx(toolpath_cycle_time(Toolpath.load(path)).total, rel=1e-12)
     text = script.read_text()
     lines = text.splitlines()
     pays = [i for i, line in enumerate(lines) if "set_payload(" in line]

@@ -156,3 +156,20 @@ def test_fault_option_parsing():
         parse_fault_option("gremlins")
     with pytest.raises(ValueError, match="bad fault trigger"):
         parse_fault_option("estop@sometime")
+
+
+def test_joint_accelerations_stay_within_the_bound_by_slowing_the_run():
+    """A fast blended movel square (1 m/s, 10 m/s^2) would need more joint acceleration than the
+    bound: the stand-in slows the whole run until its executed joint accelerations fit."""
+    start = matrix_to_pose(K.fk(M, HOME))
+    corners = [(0.15, 0, 0), (0.15, 0.15, 0), (0.0, 0.15, 0)]
+    wps = [Waypoint("movel", 1.0, 10.0, 0.03 if i < 2 else 0.0, pose=tuple(start + np.r_[c, 0, 0, 0]))
+           for i, c in enumerate(corners)]
+    durations = []
+    for bound in (40.0, 20.0, 8.0):
+        tr = plan_moves(M, np.eye(4), HOME, wps, DT, joint_accel_max=bound)
+        peak = np.abs(np.diff(tr.q, 2, axis=0)).max() / DT ** 2
+        assert tr.stretch > 1.0 and peak <= bound
+        assert np.abs(matrix_to_pose(K.fk(M, tr.q[-1])) - (start + np.r_[corners[-1], 0, 0, 0])).max() < 1e-9
+        durations.append(tr.duration)
+    assert durations[0] < durations[1] < durations[2]

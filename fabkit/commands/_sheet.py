@@ -46,6 +46,8 @@ def toolpath_sheet_record(args, spec, design_model, compensated, cell, tp, grip_
 
     from fabkit.sheet import panel_mass
     from robot.loads import payload_record, toolpath_loads
+    from robot.motion import toolpath_cycle_time
+    from robot.ur_motion import PayloadError
 
     if args.tool_mass is None:
         print("fabkit toolpath: note: payload with an assumed 1.0 kg gripper (give --tool-mass)", file=sys.stderr)
@@ -56,6 +58,10 @@ def toolpath_sheet_record(args, spec, design_model, compensated, cell, tp, grip_
     loads = toolpath_loads(spec, design_model, compensated.creases, grip_face, cell, tool_mass + pm.mass)
     tp = replace(tp, extra={**tp.extra, "sheet": {**compensated.summary(), "loads": loads.summary()},
                             "payload": payload})
+    try:  # the declared payload lowers the joint acceleration bound (robot.ur_motion)
+        tp = replace(tp, extra={**tp.extra, "cycle_time_s": toolpath_cycle_time(tp).total})
+    except PayloadError as exc:  # the load check reports the payload; the check refuses the toolpath
+        print(f"fabkit toolpath: warning: {exc}", file=sys.stderr)
     seen: dict = {}
     for v in loads.failures:  # one line per crease and check, with the states it applies to
         seen.setdefault((v.crease, v.check), []).append(v)

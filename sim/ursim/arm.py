@@ -1,8 +1,10 @@
 """The simulated arm's motion executor: advances planned trajectories, servo and speed control one
 controller period at a time, and stops them (decelerating stop or immediate halt).
 
-Joint accelerations: trajectories follow their planned `a` (time-scaled by the speed slider, so
-accelerations scale by its square); servo and speed control, and stops from them, are bounded by
+Trajectories come from `sim.ursim.motion.plan_moves` (`robot.ur_motion`'s model, joint
+accelerations within the payload's bound `joint_accel_max`) and are time-scaled by the speed slider
+f: each tick advances them by f periods, so the path is unchanged, speeds scale by f and
+accelerations by f^2. Servo and speed control, and stops from them, are bounded by
 `joint_accel_max`; a halt (protective or emergency stop, a killed program) stops at once.
 
 Called from the controller's tick thread only; other threads hand it work through the methods

@@ -174,7 +174,8 @@ class ControlScript:
     # ---- moves -------------------------------------------------------------------------------
     def _plan(self, waypoints: list[Waypoint]):
         ctrl = self.ctrl
-        return plan_moves(ctrl.model, ctrl.tcp, ctrl.arm.q.copy(), resolve_fk_targets(ctrl, waypoints), ctrl.period)
+        return plan_moves(ctrl.model, ctrl.tcp, ctrl.arm.q.copy(), resolve_fk_targets(ctrl, waypoints), ctrl.period,
+                          joint_accel_max=ctrl.arm.joint_accel_max)
 
     def _move(self, waypoints: list[Waypoint], asynchronous: bool) -> None:
         ctrl = self.ctrl

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from robot import kinematics as K
+from robot.ur_motion import JOINT_ACCEL_MAX as UR_JOINT_ACCEL_MAX
 from sim.ursim.arm import Arm
 from sim.ursim.clients import Clients
 from sim.ursim.motion import matrix_to_pose, pose_to_matrix
@@ -49,7 +50,7 @@ _SAFETY_BITS = {SAFETY_NORMAL: 1 << 0, SAFETY_PROTECTIVE_STOP: (1 << 2) | (1 << 
 #: Commands kept by `Controller.record` (the oldest are forgotten first).
 RECORD_MAX = 20000
 #: Joint acceleration bound of servo motion and the configuration data (rad/s^2, URSim 5.8's value).
-JOINT_ACCEL_MAX = 40.0
+JOINT_ACCEL_MAX = UR_JOINT_ACCEL_MAX
 #: Faults that can wait at once (admin `at_progress` / `after`).
 MAX_PENDING_FAULTS = 100
 #: q = [0, -90, 90, -90, -90, 0] deg, UR's home configuration (tool pointing down).
@@ -307,12 +308,17 @@ class Controller:
 
     def set_payload(self, mass: float, cog=None, inertia=None, source: str = "urscript") -> None:
         """`set_payload(m, cog)` / ur_rtde `setPayload`: store and report the payload (RTDE
-        `payload`, `payload_cog`, `payload_inertia`, the real-time package, admin `state`). A
-        payload changes no motion timing in the stand-in (the arm is kinematic; UR documents no
-        timing law for it)."""
+        `payload`, `payload_cog`, `payload_inertia`, the real-time package, admin `state`) and
+        lower the arm's joint acceleration bound for it (`robot.ur_motion.joint_accel_bound`); a
+        mass over the arm's rated payload is refused (`ValueError`)."""
+        from robot.loads import arm_rating
+        from robot.ur_motion import joint_accel_bound
+
         if not (np.isfinite(mass) and 0.0 <= mass <= 1000.0):
             raise ValueError(f"set_payload: mass {mass} kg is not a payload")
+        bound = joint_accel_bound(mass, arm_rating(self.model.name).payload, JOINT_ACCEL_MAX)
         with self.lock:
+            self.arm.joint_accel_max = bound
             self.payload = float(mass)
             if cog is not None:
                 self.payload_cog = np.asarray(cog, dtype=np.float64).reshape(3)

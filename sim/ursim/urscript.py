@@ -283,7 +283,7 @@ class URScriptProgram:
         with ctrl.lock:
             self._check()
             traj = plan_moves(ctrl.model, ctrl.tcp, ctrl.arm.q.copy(), resolve_fk_targets(ctrl, waypoints),
-                              ctrl.period)
+                              ctrl.period, joint_accel_max=ctrl.arm.joint_accel_max)
             ctrl.arm.run(traj, on_marker=marker, on_done=lambda ok: done.set())
         while not done.wait(0.05):
             self._check()
@@ -316,8 +316,11 @@ class URScriptProgram:
                 ctrl.out_int[n] = int(args[1])
         elif name in ("set_payload", "set_target_payload"):
             inertia = st.kwargs.get("inertia", args[2] if len(args) > 2 else None)
-            ctrl.set_payload(float(args[0]), None if len(args) < 2 else [float(x) for x in args[1]],
-                             inertia if name == "set_target_payload" else None, source="urscript")
+            try:
+                ctrl.set_payload(float(args[0]), None if len(args) < 2 else [float(x) for x in args[1]],
+                                 inertia if name == "set_target_payload" else None, source="urscript")
+            except ValueError as exc:
+                raise PlanError(f"line {st.line}: {name}: {exc}") from None
         elif name == "sleep":
             if self._killed.wait(max(0.0, float(args[0]))):
                 raise Killed()
