@@ -100,9 +100,9 @@ def sheet_of(material="none", thickness=None, crease: str = "plain", *, ligament
     from fabkit.materials import get_material
 
     m = material if isinstance(material, Material) else get_material(material)
-    t = _length(thickness, "thickness")
-    lig = _length(ligament, "ligament")
-    r = _length(bend_radius, "bend_radius", allow_zero=True)
+    t = _length(thickness, "--thickness")
+    lig = _length(ligament, "--ligament")
+    r = _length(bend_radius, "--bend-radius", allow_zero=True)
     if m.rigid and (t is not None or crease != "plain" or lig is not None or r is not None):
         raise InputError("--thickness, --crease, --ligament and --bend-radius need a --material other than none",
                          source="--material")

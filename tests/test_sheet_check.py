@@ -1,0 +1,143 @@
+"""The sheet in the check: fold-load verdicts per state through `fabkit check` and `fk.check`, the
+panel posed in the compensated states with the sheet's thickness, and the send interlock."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fabkit.cli import main as fabkit_main
+from fabkit.io.fold import load_fold
+from fabkit.sheet.creases import panel_creases
+
+ROOT = Path(__file__).resolve().parents[1]
+CELL = str(ROOT / "cells" / "ur5e_bench.toml")
+# a 0.6 m crease on a nearly straight arc (radius 5 m, 6.88 deg), folded 45 deg on the UR5e bench
+PANEL = ["--radius", "5", "--arc", "6.88", "--fold", "45", "--columns", "12"]
+# a light gripper (0.5 kg): the grooved crease's fold force plus the payload's weight stays within
+# the UR5e's 49 N and the 50 mm cup's 47 N at this grip
+TOOL = ["--tool-mass", "0.5"]
+
+
+@pytest.fixture(scope="module")
+def crease_600(tmp_path_factory):
+    d = tmp_path_factory.mktemp("crease600")
+    for argv in (["generate", "reflect", "-o", str(d / "panel.obj"), "-q", *PANEL],
+                 ["unfold", str(d / "panel.obj"), "-o", str(d / "flat.obj"), "-q"],
+                 ["refold", str(d / "flat.obj"), str(d / "panel.obj"), "-o", str(d / "seq.fold"), "-q",
+                  "--frames", "5"]):
+        assert fabkit_main(argv) == 0
+    (crease,) = panel_creases(load_fold(d / "seq.fold"))
+    assert crease.length == pytest.approx(0.6, abs=0.005)  # the 600 mm crease
+    return d
+
+
+def _plan(d, name, *sheet):
+    path = d / f"{name}.json"
+    assert fabkit_main(["toolpath", str(d / "seq.fold"), "--cell", CELL, "-o", str(path), "-q", *TOOL, *sheet]) == 0
+    return path
+
+
+def _check(path, *extra):
+    import uuid
+
+    out = path.with_name(f"{path.stem}.{uuid.uuid4().hex[:8]}.check.json")
+    rc = fabkit_main(["check", str(path), "--cell", CELL, "-o", str(out), "-q", *extra])
+    return rc, (json.loads(out.read_text()) if out.exists() else None)
+
+
+@pytest.fixture(scope="module")
+def plain(crease_600):
+    return _plan(crease_600, "plain", "--material", "5052-H32", "--thickness", "1mm")
+
+
+@pytest.fixture(scope="module")
+def grooved(crease_600):
+    return _plan(crease_600, "grooved", "--material", "5052-H32", "--thickness", "1mm", "--crease", "grooved",
+                 "--ligament", "0.4mm")
+
+
+def test_unscored_600_mm_crease_fails_fabkit_check_naming_crease_and_remedy(plain):
+    rc, rep = _check(plain)
+    assert rc == 1 and not rep["ok"]
+    loads = [p for p in rep["problems"] if p["kind"] == "load"]
+    assert loads and all(p["detail"].startswith("crease 0, fold states 1,2,3,4:") for p in loads)
+    assert [p for p in rep["problems"] if p["kind"] != "load"] == []  # the motion itself is clean
+    wrist = next(p for p in loads if "wrist couple" in p["subject"])
+    assert "groove the crease to a ligament of at most" in wrist["detail"] and "ur10e" in wrist["detail"]
+    assert wrist["value"] == pytest.approx(36.6 / 28.0, abs=0.01)  # 36.6 N m of the wrist's 28
+    assert any("push instead of pull" in p["detail"] for p in loads)  # the valley makes the cup pull
+    L = rep["loads"]
+    assert L["arm"] == "ur5e" and not L["ok"] and L["recorded"] and L["sheet"]["crease_preparation"] == "plain"
+    assert [s["state"] for s in L["states"]] == [1, 2, 3, 4]
+    for st in L["states"]:
+        first, last = st["waypoints"]
+        assert 0 < first <= last and not st["ok"]
+        for c in st["checks"]:
+            assert c["moment_nm"] == pytest.approx(36.6, abs=0.1)
+            assert c["ratio"] == pytest.approx(c["demand"] / c["capacity"], rel=1e-12)
+            assert c["ok"] == (c["demand"] <= c["capacity"])
+
+
+def test_the_same_crease_grooved_to_0_4_mm_passes_fabkit_check(grooved):
+    rc, rep = _check(grooved)
+    assert rc == 0 and rep["ok"] and rep["problems"] == []
+    L = rep["loads"]
+    assert L["ok"] and L["sheet"]["crease"] == "grooved to a 0.4 mm ligament"
+    checks = [c for st in L["states"] for c in st["checks"]]
+    assert {c["check"] for c in checks} == {"wrist couple", "fold force + payload weight", "cup pull"}
+    assert all(c["ok"] and c["ratio"] <= 1 for c in checks)
+    assert max(c["moment_nm"] for c in checks) == pytest.approx(36.6 * 0.4 ** 2, abs=0.05)  # m_p ~ t_l^2
+
+
+def test_a_failed_load_check_blocks_the_send(plain):
+    from robot.cell import load_cell
+    from robot.interlock import CheckFailedError, clear_for_send
+    from robot.toolpath import Toolpath
+
+    rc, rep = _check(plain)
+    assert rc == 1
+    with pytest.raises(CheckFailedError, match="load crease 0"):
+        clear_for_send(Toolpath.load(plain), rep, load_cell(CELL), base_dir=plain.parent)
+
+
+def test_check_refuses_another_sheet_than_the_program_was_planned_for(plain):
+    rc, rep = _check(plain, "--material", "1100-H14", "--thickness", "0.5mm")
+    assert rc == 2 and rep is None
+    rc, _ = _check(plain, "--material", "none")
+    assert rc == 2
+    rc, rep = _check(plain, "--material", "5052-H32", "--thickness", "1mm")  # the same sheet: as without
+    assert rc == 1 and rep["loads"]["recorded"]
+
+
+def test_check_material_on_a_rigid_program_adds_the_loads_and_says_so(crease_600):
+    rigid = _plan(crease_600, "rigid")
+    rc, rep = _check(rigid)
+    assert rc == 0 and rep["loads"] is None
+    rc, rep = _check(rigid, "--material", "5052-H32", "--thickness", "1mm")
+    assert rc == 1 and not rep["loads"]["recorded"]
+    assert any("planned rigid" in n for n in rep["notes"])
+    assert any(p["kind"] == "load" and "crease 0" in p["detail"] for p in rep["problems"])
+
+
+def test_the_panel_is_checked_in_the_compensated_states_with_the_sheets_thickness(crease_600, tmp_path):
+    from robot.cell import load_cell
+    from robot.sheet_program import compensated_states, sheet_of_toolpath
+    from robot.toolpath import Toolpath
+    from sim.check import run_toolpath_check
+    from sim.panel import panel_from_fold
+
+    path = _plan(crease_600, "thick", "--material", "5052-H32", "--thickness", "2mm")
+    tp = Toolpath.load(path)
+    spec = sheet_of_toolpath(tp)
+    assert spec.thickness == pytest.approx(0.002) and spec.inside_radius == pytest.approx(0.003)
+    res = run_toolpath_check(path, load_cell(CELL))
+    assert res.panel.pieces.thickness == pytest.approx(0.002)
+    design = load_fold(crease_600 / "seq.fold")
+    comp = compensated_states(design, spec).model
+    cell = load_cell(CELL)
+    grip = tp.extra["grip"]["face"]
+    want = panel_from_fold(comp, cell.fixture, grip_face_id=grip, thickness=0.002)
+    as_designed = panel_from_fold(design, cell.fixture, grip_face_id=grip, thickness=0.002)
+    np.testing.assert_allclose(res.panel.pos, want.pos, atol=1e-12)
+    assert np.abs(as_designed.pos[-1] - want.pos[-1]).max() > 1e-3  # the overbend moves the faces by mm
