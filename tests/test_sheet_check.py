@@ -10,32 +10,19 @@ from fabkit.cli import main as fabkit_main
 from fabkit.io.fold import load_fold
 from fabkit.sheet.creases import panel_creases
 
-ROOT = Path(__file__).resolve().parents[1]
-CELL = str(ROOT / "cells" / "ur5e_bench.toml")
-# a 0.6 m crease on a nearly straight arc (radius 5 m, 6.88 deg), folded 45 deg on the UR5e bench
-PANEL = ["--radius", "5", "--arc", "6.88", "--fold", "45", "--columns", "12"]
-# a light gripper (0.5 kg): the grooved crease's fold force plus the payload's weight stays within
-# the UR5e's 49 N and the 50 mm cup's 47 N at this grip
-TOOL = ["--tool-mass", "0.5"]
+from sheet_panels import CELL, GROOVED, crease_600_fold, plan as _plan_to
 
 
 @pytest.fixture(scope="module")
 def crease_600(tmp_path_factory):
     d = tmp_path_factory.mktemp("crease600")
-    for argv in (["generate", "reflect", "-o", str(d / "panel.obj"), "-q", *PANEL],
-                 ["unfold", str(d / "panel.obj"), "-o", str(d / "flat.obj"), "-q"],
-                 ["refold", str(d / "flat.obj"), str(d / "panel.obj"), "-o", str(d / "seq.fold"), "-q",
-                  "--frames", "5"]):
-        assert fabkit_main(argv) == 0
-    (crease,) = panel_creases(load_fold(d / "seq.fold"))
+    (crease,) = panel_creases(load_fold(crease_600_fold(d)))
     assert crease.length == pytest.approx(0.6, abs=0.005)  # the 600 mm crease
     return d
 
 
 def _plan(d, name, *sheet):
-    path = d / f"{name}.json"
-    assert fabkit_main(["toolpath", str(d / "seq.fold"), "--cell", CELL, "-o", str(path), "-q", *TOOL, *sheet]) == 0
-    return path
+    return _plan_to(d / "seq.fold", d / f"{name}.json", *sheet)
 
 
 def _check(path, *extra):
@@ -53,8 +40,7 @@ def plain(crease_600):
 
 @pytest.fixture(scope="module")
 def grooved(crease_600):
-    return _plan(crease_600, "grooved", "--material", "5052-H32", "--thickness", "1mm", "--crease", "grooved",
-                 "--ligament", "0.4mm")
+    return _plan(crease_600, "grooved", *GROOVED)
 
 
 def test_unscored_600_mm_crease_fails_fabkit_check_naming_crease_and_remedy(plain):
