@@ -127,3 +127,67 @@ def test_the_panel_is_checked_in_the_compensated_states_with_the_sheets_thicknes
     as_designed = panel_from_fold(design, cell.fixture, grip_face_id=grip, thickness=0.002)
     np.testing.assert_allclose(res.panel.pos, want.pos, atol=1e-12)
     assert np.abs(as_designed.pos[-1] - want.pos[-1]).max() > 1e-3  # the overbend moves the faces by mm
+
+
+def _table(page: str, table_id: str) -> list[list[str]]:
+    """The rows (cell texts) of the table with this id, read with the standard HTML parser."""
+    from html.parser import HTMLParser
+
+    class Rows(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.inside, self.rows, self.cell = False, [], None
+
+        def handle_starttag(self, tag, attrs):
+            if tag == "table" and dict(attrs).get("id") == table_id:
+                self.inside = True
+            elif self.inside and tag == "tr":
+                self.rows.append([])
+            elif self.inside and tag in ("td", "th"):
+                self.cell = ""
+
+        def handle_endtag(self, tag):
+            if tag == "table":
+                self.inside = False
+            elif self.inside and tag in ("td", "th"):
+                self.rows[-1].append(self.cell.strip())
+                self.cell = None
+
+        def handle_data(self, data):
+            if self.cell is not None:
+                self.cell += data
+
+    p = Rows()
+    p.feed(page)
+    return p.rows
+
+
+def test_report_html_shows_design_and_programmed_angles_and_the_load_verdicts(plain, tmp_path):
+    import shutil
+
+    run = tmp_path / "run"
+    run.mkdir()
+    shutil.copy(plain, run / "path.json")
+    rc, rep = _check(plain)
+    (run / "check.json").write_text(json.dumps(rep))
+    assert fabkit_main(["report", str(run), "-q"]) == 0
+    page = (run / "report.html").read_text()
+    doc = json.loads(plain.read_text())
+    angles = _table(page, "sheet-angles")
+    assert angles[0][:4] == ["state", "crease", "design angle [deg]", "programmed angle [deg]"]
+    want = [(st["state"], c) for st in doc["sheet"]["states"] for c in st["creases"]]
+    assert len(angles) - 1 == len(want)
+    for row, (s, c) in zip(angles[1:], want):
+        assert row[:2] == [str(s), c["crease"]]
+        assert float(row[2]) == pytest.approx(c["design_deg"], abs=0.005)
+        assert float(row[3]) == pytest.approx(c["programmed_deg"], abs=0.005)
+    assert float(angles[-1][3]) > float(angles[-1][2])  # overbent
+    loads = _table(page, "sheet-loads")
+    checks = [(st["state"], c) for st in rep["loads"]["states"] for c in st["checks"]]
+    assert len(loads) - 1 == len(checks)
+    for row, (s, c) in zip(loads[1:], checks):
+        assert row[0] == str(s) and row[1] == c["crease"] and row[2] == c["check"]
+        assert row[7] == ("pass" if c["ok"] else "fail")
+        assert float(row[4].split()[0]) == pytest.approx(c["demand"], abs=0.05)
+        if not c["ok"]:
+            assert row[8] == c["remedy"]
