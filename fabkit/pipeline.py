@@ -175,7 +175,8 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
          grip_face: int | None = None, approach: float | None = None, standoff: float | None = None,
          tool_yaw: float | None = None, fold_speed: float | None = None,
          max_joint_step: float | None = None, material="none", thickness=None, crease: str = "plain",
-         ligament=None, bend_radius=None, tool_mass: float | None = None, check_loads: bool = False) -> Program:
+         ligament=None, bend_radius=None, tool_mass: float | None = None, check_loads: bool = False,
+         design_surface: str = "top") -> Program:
     """A UR toolpath for `folds` in the cell file `cell` (`fabkit toolpath`). Writes the fold
     states (`fold.fold`) and the toolpath (`path.json`) into `workdir` (made if missing; default:
     a new temporary folder) and plans from the FOLD file as written, recording its sha256. Options
@@ -184,7 +185,8 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
 
     The sheet (`material` a name, .toml path or `fabkit.materials.Material`; `thickness`,
     `ligament`, `bend_radius` in metres or as text with a unit, "1mm"; `crease` plain | grooved |
-    perforated; `tool_mass` kg) as `fabkit toolpath --material ...`: the path follows the
+    perforated; `tool_mass` kg; `design_surface` top | mid | bottom) as `fabkit toolpath
+    --material ...`: the path follows the
     springback-compensated states, path.json carries `sheet` and `payload`, and
     `details["loads"]` the fold-load verdicts (with `check_loads`, exceeded loads make it not ok
     and write no path.json). Not ok (no path.json) when the path is unreachable, singular or
@@ -217,6 +219,10 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
              "tool_yaw": None if tool_yaw is None else math.radians(tool_yaw),
              "max_joint_step": None if max_joint_step is None else math.radians(max_joint_step)}
     options = replace(options, **{k: v for k, v in given.items() if v is not None})
+    if not spec.rigid:  # the cup grips the sheet's top face
+        from fabkit.sheet import front_face_offset
+
+        options = replace(options, grip_standoff=options.grip_standoff + front_face_offset(spec, design_surface))
     if fold_speed is not None:
         options = replace(options, params=replace(options.params, fold_speed=fold_speed))
     source = fold_source(fold_file, frames.n_states)
@@ -228,7 +234,8 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),), **common)
     tp = res.toolpath
     if compensated is not None:
-        tp, loads = sheet_records(tp, spec, design_model, compensated, cell_obj, res.grip_face, tool_mass)
+        tp, loads = sheet_records(tp, spec, design_model, compensated, cell_obj, res.grip_face, tool_mass,
+                                  design_surface=design_surface)
         common["details"]["loads"] = loads.summary()
         if check_loads and not loads.ok:
             return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=tuple(loads.failure_lines()),

@@ -32,9 +32,12 @@ def compensated_states(model, spec, source: str = "SEQ.fold"):
 
 
 def sheet_records(tp, spec, design_model, compensated, cell, grip_face: int,
-                  tool_mass: float | None = None):
+                  tool_mass: float | None = None, design_surface: str = "top"):
     """The toolpath with its `sheet` and `payload` records (module docstring) and the
-    `robot.loads.LoadReport` of its fold loads. `tool_mass` None: `DEFAULT_TOOL_MASS`."""
+    `robot.loads.LoadReport` of its fold loads. `tool_mass` None: `DEFAULT_TOOL_MASS`;
+    `design_surface`: which surface of the sheet the FOLD's faces are (top, mid, bottom), the
+    planner having added `fabkit.sheet.front_face_offset` to the grip standoff."""
+    from fabkit.sheet import front_face_offset
     from fabkit.materials import material_toml
     from fabkit.sheet import panel_mass
 
@@ -44,7 +47,8 @@ def sheet_records(tp, spec, design_model, compensated, cell, grip_face: int,
     payload = payload_record(cell, tp.waypoints, pm.mass, pm.cog, mass)
     loads = toolpath_loads(spec, design_model, compensated.creases, grip_face, cell, mass + pm.mass)
     sheet = {**compensated.summary(), "material_toml": material_toml(spec.material), "tool_mass_kg": mass,
-             "tool_mass_assumed": tool_mass is None, "loads": loads.summary()}
+             "tool_mass_assumed": tool_mass is None, "design_surface": design_surface,
+             "front_face_offset_mm": front_face_offset(spec, design_surface) * 1000, "loads": loads.summary()}
     return replace(tp, extra={**tp.extra, "sheet": sheet, "payload": payload}), loads
 
 

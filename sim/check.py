@@ -173,7 +173,7 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
         tp = toolpath
     else:
         tp, base_dir = Toolpath.load(toolpath), Path(toolpath).parent
-    from sim.check_loads import check_sheet_loads, fold_states_model, resolve_sheet
+    from sim.check_loads import check_sheet_loads, fold_states_model, resolve_sheet, slab_offset
 
     sha = tp.sha256
     prog = program_from_toolpath(tp, cell, sha256=sha)
@@ -186,7 +186,8 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
     panel = None
     if use_panel and model is not None:
         states = fold_states_model(model, spec, recorded, str(fold_path))
-        panel = source_panel(tp, cell, states, fold_path, thickness or (spec.thickness if spec is not None else None))
+        t = thickness or (spec.thickness if spec is not None else None)
+        panel = source_panel(tp, cell, states, fold_path, t, slab_offset(tp, spec, t))
     report, dense = check_program(prog, cell, panel, settings, on_progress=on_progress)
     if spec is not None:
         loads = check_sheet_loads(tp, spec, model, cell, recorded=recorded)

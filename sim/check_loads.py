@@ -3,7 +3,8 @@ posed in, and the fold-load verdicts per state.
 
 A toolpath planned with a material carries a `sheet` record (`robot.sheet_program`): its program
 follows the springback-compensated states, so the check poses the panel in those (recomputed from
-the FOLD file and the sheet), with the sheet's real thickness, and recomputes the fold loads of
+the FOLD file and the sheet), with the sheet's real thickness on the side of the design surface
+where the sheet lies (behind its top face, which the cup grips), and recomputes the fold loads of
 every crease the arm folds, per state, against the cell's arm ratings and vacuum cup
 (`robot.loads`). A toolpath without a record was planned rigid; a sheet given to the check then
 adds the load verdicts for that sheet (the program itself is not compensated and declares no
@@ -20,7 +21,7 @@ from dataclasses import dataclass
 from fabkit.errors import InputError
 from sim.problems import Problem
 
-__all__ = ["SheetCheck", "resolve_sheet", "fold_states_model", "check_sheet_loads"]
+__all__ = ["SheetCheck", "resolve_sheet", "fold_states_model", "slab_offset", "check_sheet_loads"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +76,21 @@ def fold_states_model(model, spec, recorded: bool, source: str):
 
     comp = compensated_states(model, spec, source=source)
     return model if comp is None else comp.model
+
+
+def slab_offset(tp, spec, thickness: float | None) -> float:
+    """Where the panel pieces' slab sits [m, its centre along the front normals]: centred on the
+    faces without a sheet; for a sheet, behind its front face, which lies `front_face_offset` in
+    front of the design surface (the record's `design_surface`, else the top face)."""
+    if spec is None or spec.rigid or not thickness:
+        return 0.0
+    from dataclasses import replace
+
+    from fabkit.sheet import front_face_offset
+
+    rec = tp.extra.get("sheet") if isinstance(tp.extra, dict) else None
+    surface = rec.get("design_surface", "top") if isinstance(rec, dict) else "top"
+    return front_face_offset(replace(spec, thickness=float(thickness)), surface) - thickness / 2
 
 
 def _state_moves(tp) -> dict[int, tuple[int, int]]:

@@ -105,13 +105,14 @@ def load_source_fold(tp, fold: str | Path | None = None, *, base_dir: str | Path
     return model, path, got
 
 
-def source_panel(tp, cell, model, path, thickness: float | None = None) -> PanelModel:
+def source_panel(tp, cell, model, path, thickness: float | None = None, offset: float = 0.0) -> PanelModel:
     """The panel the check poses: `model`'s faces in its fold states (the design states, or the
-    springback-compensated ones a sheet program follows), `thickness` [m] thick. `InputError` for
-    a grip face not in the panel or too few states."""
+    springback-compensated ones a sheet program follows), `thickness` [m] thick, its slab centred
+    `offset` [m] along the faces' front normals. `InputError` for a grip face not in the panel or
+    too few states."""
     try:
         panel = panel_from_fold(model, cell.fixture, grip_face_id=grip_face_of(tp),
-                                thickness=thickness or DEFAULT_THICKNESS, source=str(path))
+                                thickness=thickness or DEFAULT_THICKNESS, source=str(path), offset=offset)
     except ValueError as exc:
         raise InputError(str(exc), source=str(path)) from None
     top = max((w.state for w in tp.waypoints), default=0)

@@ -191,3 +191,35 @@ def test_report_html_shows_design_and_programmed_angles_and_the_load_verdicts(pl
         assert float(row[4].split()[0]) == pytest.approx(c["demand"], abs=0.05)
         if not c["ok"]:
             assert row[8] == c["remedy"]
+
+
+@pytest.mark.parametrize("surface", ["top", "bottom"])
+def test_the_cup_sits_on_the_sheets_top_face_and_the_slab_lies_behind_it(crease_600, surface):
+    """2 mm sheet: the grip face's collision slab spans [0, t] ahead of the TCP along the tool axis,
+    whichever surface of the sheet the FOLD's faces are (the standoff grows by t for the bottom)."""
+    from scipy.spatial.transform import Rotation
+
+    from robot.cell import load_cell, pose_to_matrix
+    from robot.toolpath import Toolpath
+    from sim.check import run_toolpath_check
+
+    path = _plan(crease_600, f"ds-{surface}", "--material", "5052-H32", "--thickness", "2mm",
+                 "--design-surface", surface)
+    tp = Toolpath.load(path)
+    assert tp.extra["sheet"]["design_surface"] == surface
+    assert tp.extra["sheet"]["front_face_offset_mm"] == pytest.approx({"top": 0.0, "bottom": 2.0}[surface])
+    res = run_toolpath_check(path, load_cell(CELL))
+    panel = res.panel
+    g = panel.grip_face
+    k = next(i for i, w in enumerate(tp.waypoints) if w.op == "grip")
+    T = pose_to_matrix(tp.waypoints[k].pose)
+    R = Rotation.from_quat(np.asarray(panel.quat[0][g])[[1, 2, 3, 0]]).as_matrix()
+    cell = load_cell(CELL)
+    W = cell.world_to_base
+    corners = (panel.pieces.local_vertices[g] @ R.T + panel.pos[0][g]) @ W[:3, :3].T + W[:3, 3]
+    depth = (corners - T[:3, 3]) @ T[:3, 2]  # along the tool's z, into the face
+    assert depth.min() == pytest.approx(0.0, abs=2e-5) and depth.max() == pytest.approx(0.002, abs=2e-5)
+    if surface == "bottom":
+        top = Toolpath.load(_plan(crease_600, "ds-top-ref", "--material", "5052-H32", "--thickness", "2mm"))
+        Tt = pose_to_matrix(top.waypoints[k].pose)
+        assert (T[:3, 3] - Tt[:3, 3]) @ Tt[:3, 2] == pytest.approx(-0.002, abs=1e-9)  # backed off by t

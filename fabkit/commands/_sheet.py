@@ -37,7 +37,8 @@ def toolpath_sheet_record(args, spec, design_model, compensated, cell, tp, grip_
 
     if args.tool_mass is None:
         print("fabkit toolpath: note: payload with an assumed 1.0 kg gripper (give --tool-mass)", file=sys.stderr)
-    tp, loads = sheet_records(tp, spec, design_model, compensated, cell, grip_face, args.tool_mass)
+    tp, loads = sheet_records(tp, spec, design_model, compensated, cell, grip_face, args.tool_mass,
+                              design_surface=args.design_surface)
     for line in loads.failure_lines():
         print(f"fabkit toolpath: {'FAILED' if args.check_loads else 'warning'}: {line}", file=sys.stderr)
     return tp, loads
