@@ -223,3 +223,26 @@ def test_the_cup_sits_on_the_sheets_top_face_and_the_slab_lies_behind_it(crease_
         top = Toolpath.load(_plan(crease_600, "ds-top-ref", "--material", "5052-H32", "--thickness", "2mm"))
         Tt = pose_to_matrix(top.waypoints[k].pose)
         assert (T[:3, 3] - Tt[:3, 3]) @ Tt[:3, 2] == pytest.approx(-0.002, abs=1e-9)  # backed off by t
+
+
+def test_the_api_plans_and_checks_a_sheet_as_the_commands_do(tmp_path):
+    import fabkit.pipeline as fk
+
+    panel = fk.generate("reflect", radius=5.0, arc=6.88, fold=45.0, columns=12)
+    folds = fk.refold(fk.unfold(panel), frames=5)  # exactly developable: nothing to relax
+    plain = fk.plan(folds, CELL, workdir=tmp_path / "plain", material="5052-H32", thickness="1mm", tool_mass=0.5)
+    assert plain.ok and plain.toolpath.extra["sheet"]["crease_preparation"] == "plain"
+    assert not plain.details["loads"]["ok"]
+    checked = fk.check(plain)
+    assert not checked.ok and any("load: crease 0" in p and "remedy: groove the crease" in p for p in checked.problems)
+    # the same CHECK.json as fabkit check writes for the program's path.json
+    rc, rep = _check(plain.path_file)
+    assert rc == 1 and rep["loads"] == json.loads(checked.check_file.read_text())["loads"]
+    grooved = fk.plan(folds, CELL, workdir=tmp_path / "grooved", material="5052-H32", thickness=0.001,
+                      crease="grooved", ligament="0.4mm", tool_mass=0.5)
+    assert grooved.ok and fk.check(grooved).ok
+    strict = fk.plan(folds, CELL, workdir=tmp_path / "strict", material="5052-H32", thickness="1mm",
+                     check_loads=True)
+    assert not strict.ok and strict.path_file is None and "crease 0" in strict.problems[0]
+    with pytest.raises(Exception, match="--material"):
+        fk.check(plain, material="1100-H14", thickness="0.5mm")
