@@ -21,6 +21,13 @@ report `sim.check.check_toolpath` returns; exit 1 if there is any problem, 2 for
 (including a PATH.json whose stored sha256 does not match the document, a changed FOLD file, and
 non-finite or absurd coordinates).
 
+A toolpath planned with --material (fabkit toolpath) is also checked for its fold loads: for every
+crease the arm folds, per fold state, the fold moment against the arm's wrist torque and rated
+payload and the vacuum cup's holding force (CHECK.json `loads`: moment, demand, capacity, ratio,
+verdict per state); an exceeded load is a problem naming the crease and the remedy (groove the
+crease, a bigger arm, push instead of pull, two arms), and the panel is posed in the
+springback-compensated states with the sheet's thickness (docs/sheet.md).
+
 Renders (offscreen, EGL or OSMesa): --render F.png draws waypoint K (default: the first problem,
 else the middle of the fold) with an offending pair in red; --render F.mp4 plays the whole program.
 
