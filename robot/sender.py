@@ -12,11 +12,13 @@
    changed when this refuses;
 4. only then changes: power on and brake release (`power_on`), unlock a protective stop older than
    5 s (`unlock`); safety must be NORMAL; connect the IO and control interfaces (the control script
-   is uploaded), set the TCP, arm the RTDE watchdog (`robot.rtde_worker`);
+   is uploaded), set the TCP, the gripper and the toolpath's payload (`robot.send_tool`: ur_rtde's
+   setPayload, confirmed by the receive stream), arm the RTDE watchdog (`robot.rtde_worker`);
 5. the waypoints from `resume_from` as blended `movePath` chunks, asynchronously, watching the
    receive stream every `poll_s` (each poll kicks the watchdog): the timestamp must advance, safety
-   must stay normal, the control script must keep running; the async progress register gives the
-   waypoint index;
+   must stay normal, the control script must keep running, the declared payload must stay; the
+   async progress register gives the waypoint index; at grip and release waypoints the gripper
+   switches and the payload follows;
 6. a register move (full double precision) onto the last waypoint, compared with the toolpath.
 
 Path numbers pass through ur_rtde's script injection printed with 6 significant digits
