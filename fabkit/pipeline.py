@@ -205,6 +205,11 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     if tool_mass is not None and not (math.isfinite(tool_mass) and 0 <= tool_mass <= 20):
         raise InputError(f"{tool_mass} kg is not in [0, 20]", source="tool_mass")
     spec = sheet_of(material, thickness, crease, ligament=ligament, bend_radius=bend_radius)
+    from fabkit.sheet import DESIGN_SURFACES
+
+    if design_surface not in DESIGN_SURFACES or (spec.rigid and design_surface != "top"):
+        raise InputError(f"must be one of {', '.join(DESIGN_SURFACES)}, with a material other than none for "
+                         f"another than top; got {design_surface!r}", source="design_surface")
     cell_obj = load_cell(cell)
     folder = _workdir(workdir)
     fold_file = folds.save(folder / FOLD_NAME)

@@ -246,3 +246,10 @@ def test_the_api_plans_and_checks_a_sheet_as_the_commands_do(tmp_path):
     assert not strict.ok and strict.path_file is None and "crease 0" in strict.problems[0]
     with pytest.raises(Exception, match="--material"):
         fk.check(plain, material="1100-H14", thickness="0.5mm")
+
+
+def test_design_surface_needs_a_material(crease_600, capsys):
+    out = crease_600 / "ds-rigid.json"
+    rc = fabkit_main(["toolpath", str(crease_600 / "seq.fold"), "--cell", CELL, "-o", str(out), "-q",
+                      "--design-surface", "bottom"])
+    assert rc == 2 and not out.exists() and "--design-surface" in capsys.readouterr().err

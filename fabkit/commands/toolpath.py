@@ -126,6 +126,8 @@ def run(args) -> int:
     from fabkit.commands._sheet import sheet_from_args
 
     spec = sheet_from_args(args)
+    if spec.rigid and args.design_surface != "top":
+        raise InputError("needs a --material other than none", source="--design-surface")
     design_model, compensated = model, None
     if not spec.rigid:
         from fabkit.sheet.compensate import compensate_sequence
