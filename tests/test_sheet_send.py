@@ -103,3 +103,23 @@ def test_the_reflect_presets_urscript_sets_the_payload_on_the_stand_in(standin, 
            if r["command"] == "set_payload" and r["source"] == "urscript"]
     assert got == [(pay["tool_mass_kg"], pay["tool_cog_m"]), (pay["held_mass_kg"], pay["held_cog_m"]),
                    (pay["tool_mass_kg"], pay["tool_cog_m"])]
+
+
+def test_a_payload_the_controller_dropped_stops_the_send(fold):
+    """The watch every poll makes: a controller reporting another payload than the one declared
+    (e.g. reset when a new program started) is a fault; before a payload is declared nothing is compared."""
+    from robot.preflight import ControllerFault
+    from robot.send_tool import ToolControl
+    from robot.toolpath import Toolpath
+
+    tp = Toolpath.load(plan(fold, fold.with_name("watch.json"), *GROOVED))
+    tool = ToolControl(tp, call=None, poll=None, event=lambda **kw: None, fault=ControllerFault)
+    mass, cog = tool.payload_for(True)
+    assert mass == tp.extra["payload"]["held_mass_kg"] and list(cog) == tp.extra["payload"]["held_cog_m"]
+    tool.verify_payload({"payload": 0.0, "payload_cog": [0.0, 0.0, 0.0]})  # nothing declared yet
+    tool.declared = (mass, cog)
+    tool.verify_payload({"payload": mass, "payload_cog": list(cog)})
+    with pytest.raises(ControllerFault, match="is not the declared"):
+        tool.verify_payload({"payload": 0.0, "payload_cog": list(cog)})
+    with pytest.raises(ControllerFault, match="is not the declared"):
+        tool.verify_payload({"payload": mass, "payload_cog": [cog[0], cog[1], cog[2] + 1e-3]})
