@@ -23,6 +23,40 @@ def fold(tmp_path_factory):
     return crease_600_fold(tmp_path_factory.mktemp("crease600"))
 
 
+def test_the_reflect_presets_urscript_sets_the_payload_on_the_stand_in(standin, tmp_path):
+    """The acceptance case: the reflect preset with 1 mm 5052-H32; its URScript, sent as text to the
+    secondary port, declares the tool, tool + panel and the tool again, as PATH.json records them.
+    (First in the module: the stand-in starts at the cell's home, where the program starts, and no
+    sender has armed its RTDE watchdog yet, which a URScript program does not kick.)"""
+    import socket
+    import time
+
+    from robot.urscript import PROGRESS_REGISTER
+
+    d = tmp_path
+    for argv in (["generate", "reflect", "-o", str(d / "panel.obj"), "-q"],
+                 ["unfold", str(d / "panel.obj"), "-o", str(d / "flat.obj"), "-q"],
+                 ["refold", str(d / "flat.obj"), str(d / "panel.obj"), "-o", str(d / "seq.fold"), "-q",
+                  "--frames", "5"],
+                 ["toolpath", str(d / "seq.fold"), "--cell", CELL, "-o", str(d / "path.json"), "--script",
+                  str(d / "fold.script"), "-q", "--material", "5052-H32", "--thickness", "1mm", *FAST]):
+        assert fabkit_main(argv) == 0, argv
+    doc = json.loads((d / "path.json").read_text())
+    pay, n = doc["payload"], len(doc["waypoints"])
+    assert standin.admin("record clear")["ok"]
+    with socket.create_connection((standin.host, 30002), timeout=5.0) as s:
+        s.sendall((d / "fold.script").read_bytes())
+    deadline = time.monotonic() + 120.0
+    while standin.state()["out_int"][PROGRESS_REGISTER] != n:
+        assert time.monotonic() < deadline, standin.log_text()[-1500:]
+        assert not standin.state()["last_error"]
+        time.sleep(0.1)
+    got = [(r["mass"], r["cog"]) for r in standin.admin("record")["commands"]
+           if r["command"] == "set_payload" and r["source"] == "urscript"]
+    assert got == [(pay["tool_mass_kg"], pay["tool_cog_m"]), (pay["held_mass_kg"], pay["held_cog_m"]),
+                   (pay["tool_mass_kg"], pay["tool_cog_m"])]
+
+
 def _send(capsys, standin, path):
     check = path.with_suffix(".check.json")
     assert fabkit_main(["check", str(path), "--cell", CELL, "-o", str(check), "-q"]) == 0
@@ -68,41 +102,6 @@ def test_send_without_a_material_sends_no_payload(standin, fold, capsys):
     assert not [e for e in events if e.get("step") == "payload"]
     calls = [e for e in events if e.get("call") == "connect_receive"]
     assert calls and calls[0]["args"][1] is False  # the receive recipe of today (no payload variables)
-
-
-def test_the_reflect_presets_urscript_sets_the_payload_on_the_stand_in(standin, tmp_path):
-    """The acceptance case: the reflect preset with 1 mm 5052-H32; its URScript, sent as text to the
-    secondary port, declares the tool, tool + panel and the tool again, as PATH.json records them."""
-    import socket
-    import time
-
-    from robot.urscript import PROGRESS_REGISTER
-
-    d = tmp_path
-    for argv in (["generate", "reflect", "-o", str(d / "panel.obj"), "-q"],
-                 ["unfold", str(d / "panel.obj"), "-o", str(d / "flat.obj"), "-q"],
-                 ["refold", str(d / "flat.obj"), str(d / "panel.obj"), "-o", str(d / "seq.fold"), "-q",
-                  "--frames", "5"],
-                 ["toolpath", str(d / "seq.fold"), "--cell", CELL, "-o", str(d / "path.json"), "--script",
-                  str(d / "fold.script"), "-q", "--material", "5052-H32", "--thickness", "1mm", *FAST]):
-        assert fabkit_main(argv) == 0, argv
-    doc = json.loads((d / "path.json").read_text())
-    pay, n = doc["payload"], len(doc["waypoints"])
-    assert standin.admin("record clear")["ok"]
-    from _ursim import move_to
-
-    move_to(standin.host, doc["waypoints"][0]["q"])  # where the program starts (a previous test moved the arm)
-    with socket.create_connection((standin.host, 30002), timeout=5.0) as s:
-        s.sendall((d / "fold.script").read_bytes())
-    deadline = time.monotonic() + 120.0
-    while standin.state()["out_int"][PROGRESS_REGISTER] != n:
-        assert time.monotonic() < deadline, standin.log_text()[-1500:]
-        assert not standin.state()["last_error"]
-        time.sleep(0.1)
-    got = [(r["mass"], r["cog"]) for r in standin.admin("record")["commands"]
-           if r["command"] == "set_payload" and r["source"] == "urscript"]
-    assert got == [(pay["tool_mass_kg"], pay["tool_cog_m"]), (pay["held_mass_kg"], pay["held_cog_m"]),
-                   (pay["tool_mass_kg"], pay["tool_cog_m"])]
 
 
 def test_a_payload_the_controller_dropped_stops_the_send(fold):
