@@ -1,7 +1,6 @@
 """The sheet in the check: fold-load verdicts per state through `fabkit check` and `fk.check`, the
 panel posed in the compensated states with the sheet's thickness, and the send interlock."""
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest

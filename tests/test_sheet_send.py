@@ -3,9 +3,7 @@ of a program planned with a material declares the tool, then tool + panel after 
 tool again after the release (`setPayload`), each as PATH.json records it; without a material
 nothing about the payload is sent."""
 import json
-import subprocess
 
-import numpy as np
 import pytest
 
 from _ursim import standin_fixture

@@ -24,7 +24,8 @@ def sheet_from_args(args):
     """The `SheetSpec` the options name (InputError naming the option on bad values)."""
     from fabkit.sheet import sheet_of
 
-    return sheet_of("none" if args.material is None else args.material, args.thickness, args.crease, ligament=args.ligament, bend_radius=args.bend_radius)
+    return sheet_of("none" if args.material is None else args.material, args.thickness, args.crease,
+                    ligament=args.ligament, bend_radius=args.bend_radius)
 
 
 def toolpath_sheet_record(args, spec, design_model, compensated, cell, tp, grip_face):
