@@ -174,33 +174,60 @@ def fold_source(fold_file: str | os.PathLike, states: int) -> dict:
 def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | None = None,
          grip_face: int | None = None, approach: float | None = None, standoff: float | None = None,
          tool_yaw: float | None = None, fold_speed: float | None = None,
-         max_joint_step: float | None = None) -> Program:
+         max_joint_step: float | None = None, material="none", thickness=None, crease: str = "plain",
+         ligament=None, bend_radius=None, tool_mass: float | None = None, check_loads: bool = False,
+         design_surface: str = "top") -> Program:
     """A UR toolpath for `folds` in the cell file `cell` (`fabkit toolpath`). Writes the fold
     states (`fold.fold`) and the toolpath (`path.json`) into `workdir` (made if missing; default:
     a new temporary folder) and plans from the FOLD file as written, recording its sha256. Options
     as `fabkit toolpath` (metres, m/s; `tool_yaw`, `max_joint_step` in degrees); None: the
     planner's defaults.
-    Not ok (no path.json) when the path is unreachable, singular or discontinuous."""
+
+    The sheet (`material` a name, .toml path or `fabkit.materials.Material`; `thickness`,
+    `ligament`, `bend_radius` in metres or as text with a unit, "1mm"; `crease` plain | grooved |
+    perforated; `tool_mass` kg; `design_surface` top | mid | bottom) as `fabkit toolpath
+    --material ...`: the path follows the
+    springback-compensated states, path.json carries `sheet` and `payload`, and
+    `details["loads"]` the fold-load verdicts (with `check_loads`, exceeded loads make it not ok
+    and write no path.json). Not ok (no path.json) when the path is unreachable, singular or
+    discontinuous."""
     from dataclasses import replace
 
     from fabkit.frames import planning_frames
     from fabkit.io.load import load_fold_model
+    from fabkit.sheet import sheet_of
     from robot.cell import load_cell
+    from robot.sheet_program import compensated_states, sheet_records
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from sim.panel import check_fold_coordinates
 
     _require_ok(folds, "plan")
+    if tool_mass is not None and not (math.isfinite(tool_mass) and 0 <= tool_mass <= 20):
+        raise InputError(f"{tool_mass} kg is not in [0, 20]", source="tool_mass")
+    spec = sheet_of(material, thickness, crease, ligament=ligament, bend_radius=bend_radius)
+    from fabkit.sheet import DESIGN_SURFACES
+
+    if design_surface not in DESIGN_SURFACES or (spec.rigid and design_surface != "top"):
+        raise InputError(f"must be one of {', '.join(DESIGN_SURFACES)}, with a material other than none for "
+                         f"another than top; got {design_surface!r}", source="design_surface")
     cell_obj = load_cell(cell)
     folder = _workdir(workdir)
     fold_file = folds.save(folder / FOLD_NAME)
     model, _ = load_fold_model(fold_file)
     check_fold_coordinates(model, source=str(fold_file))
+    design_model, compensated = model, compensated_states(model, spec, source=str(fold_file))
+    if compensated is not None:
+        model = compensated.model
     frames = planning_frames(model, grip_face, source=str(fold_file))
     options = PlanOptions()
     given = {"approach_distance": approach, "grip_standoff": standoff,
              "tool_yaw": None if tool_yaw is None else math.radians(tool_yaw),
              "max_joint_step": None if max_joint_step is None else math.radians(max_joint_step)}
     options = replace(options, **{k: v for k, v in given.items() if v is not None})
+    if not spec.rigid:  # the cup grips the sheet's top face
+        from fabkit.sheet import front_face_offset
+
+        options = replace(options, grip_standoff=options.grip_standoff + front_face_offset(spec, design_surface))
     if fold_speed is not None:
         options = replace(options, params=replace(options.params, fold_speed=fold_speed))
     source = fold_source(fold_file, frames.n_states)
@@ -210,20 +237,38 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
         res = plan_panel(cell_obj, frames, grip_face=grip_face, options=options, source=source)
     except PlanningError as exc:
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),), **common)
+    tp = res.toolpath
+    if compensated is not None:
+        tp, loads = sheet_records(tp, spec, design_model, compensated, cell_obj, res.grip_face, tool_mass,
+                                  design_surface=design_surface)
+        common["details"]["loads"] = loads.summary()
+        if check_loads and not loads.ok:
+            return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=tuple(loads.failure_lines()),
+                           **common)
     path_file = folder / PATH_NAME
-    res.toolpath.save(path_file)
-    return Program(toolpath=res.toolpath, path_file=path_file, plan=res, ok=True, problems=(), **common)
+    tp.save(path_file)
+    return Program(toolpath=tp, path_file=path_file, plan=res, ok=True, problems=(), **common)
 
 
-def check(program: Program, *, use_panel: bool = True, thickness: float | None = None) -> Checked:
+def check(program: Program, *, use_panel: bool = True, thickness=None, material=None, crease: str = "plain",
+          ligament=None, bend_radius=None) -> Checked:
     """The MuJoCo check of `program` (`fabkit check`), from its PATH.json and the FOLD file it
-    names; writes `check.json` next to them. `to_json()` is that CHECK.json."""
+    names; writes `check.json` next to them. `to_json()` is that CHECK.json.
+
+    A program planned with a material is checked for its fold loads too (not ok when one is
+    exceeded; `report.loads` per state). `material` (with `thickness`, `crease`, ... as in
+    `plan`) checks the loads of a program planned without one; for one planned with a material
+    it must name the same sheet. Without `material`, `thickness` [m] is the panel pieces'."""
     from fabkit.io.jsonfile import write_json
+    from fabkit.sheet import sheet_of
     from sim.check import CheckSettings, run_toolpath_check
 
     _require_ok(program, "check")
+    sheet = None
+    if material is not None:
+        sheet, thickness = sheet_of(material, thickness, crease, ligament=ligament, bend_radius=bend_radius), None
     result = run_toolpath_check(str(program.path_file), program.cell, use_panel=use_panel, thickness=thickness,
-                                settings=CheckSettings())
+                                settings=CheckSettings(), sheet=sheet)
     report = result.report
     check_file = program.workdir / CHECK_NAME
     write_json(check_file, report.to_json())

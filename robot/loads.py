@@ -121,6 +121,22 @@ class LoadReport:
     def failures(self) -> list[LoadVerdict]:
         return [v for v in self.verdicts if not v.ok]
 
+    def failure_runs(self) -> list[tuple[str, str, list[LoadVerdict]]]:
+        """The exceeded checks grouped by crease and check: `(crease, check, verdicts by state)`."""
+        seen: dict = {}
+        for v in self.failures:
+            seen.setdefault((v.crease, v.check), []).append(v)
+        return [(crease, check, vs) for (crease, check), vs in seen.items()]
+
+    def failure_lines(self) -> list[str]:
+        """One line per crease and exceeded check: its states, the worst demand and the remedy."""
+        out = []
+        for crease, check, vs in self.failure_runs():
+            worst = max(vs, key=lambda v: v.demand)
+            out.append(f"load check: {crease}, states {','.join(str(v.state) for v in vs)}: {check} "
+                       f"{worst.demand:.1f} {worst.unit} of {worst.capacity:.1f} {worst.unit}; remedy: {worst.remedy}")
+        return out
+
     def summary(self) -> dict:
         return {"ok": self.ok, "arm": self.arm.model, "rated_payload_kg": self.arm.payload,
                 "wrist_torque_nm": self.arm.wrist_torque, "cup": self.cup.summary(),

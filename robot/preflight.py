@@ -18,11 +18,12 @@ class ControllerFault(Exception):
     """The controller is not (or no longer) in a state to run the send; the message says why."""
 
 
-def read_only_preflight(call, robot: str, waypoints, s, event) -> str:
+def read_only_preflight(call, robot: str, waypoints, s, event, payload: bool = False) -> str:
     """Read-only: the dashboard answers, the robot model is `robot`, remote control is on, and the
     arm stands where a send from `s.resume_from` may start (`robot.interlock.verify_start`).
     Changes nothing on the controller. `call(method, *args, timeout=None)` runs a worker call, `s`
-    is the `SendSettings`; returns the controller's software version."""
+    is the `SendSettings`; `payload`: also receive the controller's payload (RTDE `payload`,
+    `payload_cog`); returns the controller's software version."""
     t_end = time.monotonic() + s.connect_retry_s
     while True:
         try:
@@ -40,7 +41,7 @@ def read_only_preflight(call, robot: str, waypoints, s, event) -> str:
     remote = call("dashboard", "is in remote control")
     if "true" not in remote.lower():
         raise ControllerFault(f"preflight: remote control is off ({remote!r}); switch the pendant to Remote Control")
-    call("connect_receive", s.monitor_hz, timeout=s.connect_timeout_s)
+    call("connect_receive", s.monitor_hz, payload, timeout=s.connect_timeout_s)
     st = call("state", timeout=max(1.0, s.stall_s * 2))
     event(step="start position", q=st["q"], tcp_pose=st["tcp_pose"], resume_from=s.resume_from)
     try:

@@ -36,6 +36,8 @@ from typing import Any, Callable
 #: RTDE variables the monitor receives (a small set at 125 Hz, reference ur-rtde.md §9.1).
 MONITOR_VARIABLES = ["timestamp", "actual_q", "actual_TCP_pose", "runtime_state", "robot_mode", "safety_mode",
                      "safety_status_bits", "actual_digital_output_bits"]
+#: Added when the toolpath declares a payload (controllers since 5.5.1).
+PAYLOAD_VARIABLES = ["payload", "payload_cog"]
 
 
 class WorkerError(Exception):
@@ -52,6 +54,7 @@ class _Channels:
     def __init__(self, host: str):
         self.host = host
         self.dash = self.recv = self.ctrl = self.io = None
+        self.recv_payload = False
         self.watchdog_hz = 0.0
 
     def kick(self) -> None:
@@ -76,12 +79,14 @@ class _Channels:
         self.dash.send(command + "\n")
         return self.dash.receive().strip()
 
-    def connect_receive(self, frequency: float) -> bool:
+    def connect_receive(self, frequency: float, payload: bool = False) -> bool:
         import rtde_receive
 
         # rt_priority -1: leave the scheduling alone (ur_rtde's default 0 makes the thread SCHED_FIFO
         # on real-time kernels)
-        self.recv = rtde_receive.RTDEReceiveInterface(self.host, frequency, MONITOR_VARIABLES, False, False, -1)
+        names = MONITOR_VARIABLES + (PAYLOAD_VARIABLES if payload else [])
+        self.recv = rtde_receive.RTDEReceiveInterface(self.host, frequency, names, False, False, -1)
+        self.recv_payload = bool(payload)
         return True
 
     def connect_control(self, rt_priority: int) -> bool:
@@ -99,7 +104,9 @@ class _Channels:
                 "digital_out": int(r.getActualDigitalOutputBits()),
                 # the async status word (output_int_register_2) from the control interface's own stream;
                 # the receive interface only exposes registers 12-19
-                "progress_word": int(self.ctrl.getAsyncOperationProgressEx().value()) if self.ctrl else 0}
+                "progress_word": int(self.ctrl.getAsyncOperationProgressEx().value()) if self.ctrl else 0,
+                **({"payload": float(r.getPayload()), "payload_cog": list(r.getPayloadCog())}
+                   if self.recv_payload else {})}
 
     def connect_io(self) -> bool:
         import rtde_io
@@ -115,6 +122,10 @@ class _Channels:
 
     def set_tcp(self, pose) -> bool:
         return bool(self.ctrl.setTcp(list(pose)))
+
+    def set_payload(self, mass: float, cog) -> bool:
+        """ur_rtde `setPayload(mass [kg], cog [m] in the flange frame)`."""
+        return bool(self.ctrl.setPayload(float(mass), [float(x) for x in cog]))
 
     def get_tcp(self) -> list:
         return list(self.ctrl.getTCPOffset())

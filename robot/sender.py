@@ -12,11 +12,13 @@
    changed when this refuses;
 4. only then changes: power on and brake release (`power_on`), unlock a protective stop older than
    5 s (`unlock`); safety must be NORMAL; connect the IO and control interfaces (the control script
-   is uploaded), set the TCP, arm the RTDE watchdog (`robot.rtde_worker`);
+   is uploaded), set the TCP, the gripper and the toolpath's payload (`robot.send_tool`: ur_rtde's
+   setPayload, confirmed by the receive stream), arm the RTDE watchdog (`robot.rtde_worker`);
 5. the waypoints from `resume_from` as blended `movePath` chunks, asynchronously, watching the
    receive stream every `poll_s` (each poll kicks the watchdog): the timestamp must advance, safety
-   must stay normal, the control script must keep running; the async progress register gives the
-   waypoint index;
+   must stay normal, the control script must keep running, the declared payload must stay; the
+   async progress register gives the waypoint index; at grip and release waypoints the gripper
+   switches and the payload follows;
 6. a register move (full double precision) onto the last waypoint, compared with the toolpath.
 
 Path numbers pass through ur_rtde's script injection printed with 6 significant digits
@@ -44,6 +46,7 @@ from robot.path_chunks import (MAX_BLEND, MAX_JOINT_ACCEL, MAX_JOINT_SPEED, MAX_
                                pose_distance, printed, validate_waypoints)
 from robot.preflight import ControllerFault, dashboard_stop, prepare_controller, read_only_preflight
 from robot.rtde_worker import CallError, RTDEWorker, WorkerError
+from robot.send_tool import ToolControl
 
 __all__ = ["SendSettings", "SendResult", "SendError", "send_toolpath", "dashboard_stop", "validate_waypoints",
            "printed", "chunk_entries", "pose_distance", "point_segment_distance", "point_segment_distance_nd",
@@ -125,6 +128,7 @@ class _Sender:
         self._last_ts_change = 0.0
         self._watch = None  # (progress callback, op id) of the asynchronous move being watched
         self._control = False  # the control interface was connected (motion may have been commanded)
+        self.tool = ToolControl(self.tp, self.call, self.poll, self.event, _Fault, settings.poll_s)
 
     def event(self, **kw) -> None:
         kw.setdefault("t", round(time.time(), 4))
@@ -135,7 +139,8 @@ class _Sender:
 
     # ---- steps ----------------------------------------------------------------------------------
     def preflight(self) -> str:
-        return read_only_preflight(self.call, self.tp.robot, self.wps, self.s, self.event)
+        return read_only_preflight(self.call, self.tp.robot, self.wps, self.s, self.event,
+                                   payload=self.tool.payload is not None)
 
     def prepare(self) -> None:
         prepare_controller(self.call, self.s)
@@ -155,6 +160,7 @@ class _Sender:
             raise _Fault("emergency stop")
         if bits & PROTECTIVE_BIT:
             raise _Fault("protective stop")
+        self.tool.verify_payload(st)
         return st
 
     @staticmethod
@@ -262,46 +268,6 @@ class _Sender:
         self.last_completed = len(self.wps) - 1
         self._on_progress(self.last_completed, st)
 
-    # ---- gripper --------------------------------------------------------------------------------
-    def _grip(self) -> dict | None:
-        return self.tp.grip
-
-    def gripper_state_at(self, k: int) -> bool:
-        """Whether the gripper is closed while moving toward waypoint k (grip ... release)."""
-        on = False
-        for w in self.wps[:k]:
-            if w["op"] == "grip":
-                on = True
-            elif w["op"] == "release":
-                on = False
-        return on
-
-    def set_gripper(self, on: bool, dwell: float = 0.0) -> None:
-        g = self._grip()
-        if g is None:
-            return
-        kind, n = str(g.get("kind", "tool")), int(g["output"])
-        if not self.call("set_output", kind, n, on):
-            raise _Fault(f"the controller refused to set the {kind} digital output {n}")
-        bit = 1 << (n + (16 if kind == "tool" else 0))
-        t_end = time.monotonic() + 2.0
-        while bool(self.poll()["digital_out"] & bit) != on:  # confirmed by the receive stream
-            if time.monotonic() > t_end:
-                raise _Fault(f"the {kind} digital output {n} did not switch {'on' if on else 'off'}")
-            time.sleep(self.s.poll_s)
-        self.event(step="gripper", on=on, output=n, kind=kind)
-        if dwell > 0:
-            t_end = time.monotonic() + dwell
-            while time.monotonic() < t_end:  # keep watching the link while dwelling
-                self.poll()
-                time.sleep(min(self.s.poll_s, max(0.0, t_end - time.monotonic())))
-
-    def after_waypoint(self, k: int) -> None:
-        g = self._grip()
-        op = self.wps[k]["op"]
-        if g is not None and op in ("grip", "release"):
-            self.set_gripper(op == "grip", float(g.get(f"{op}_dwell_s", 0.5)))
-
     def settle_progress(self) -> None:
         """After a fault: the stopped program's async word still holds the last waypoint it began,
         which may be newer than the last poll saw; count it (never more than the controller says)."""
@@ -352,7 +318,7 @@ class _Sender:
             result.controller = self.preflight()
             self.prepare()
             self.event(step="preflight ok", controller=result.controller)
-            if self._grip() is not None:
+            if self.tool.grip is not None:
                 self.call("connect_io", timeout=s.connect_timeout_s)
             self._control = True  # from here on a fault stops the arm
             self.call("connect_control", s.rt_priority, timeout=s.connect_timeout_s)
@@ -361,8 +327,10 @@ class _Sender:
             active = self.call("get_tcp")
             if len(active) != 6 or np.abs(np.subtract(active, self.tp.tcp)).max() > 1e-9:
                 raise _Fault(f"the controller's active TCP {active} is not the toolpath's {list(self.tp.tcp)}")
-            if self._grip() is not None:
-                self.set_gripper(self.gripper_state_at(s.resume_from))
+            holding = self.tool.holding_at(s.resume_from)
+            if self.tool.grip is not None:
+                self.tool.set_gripper(holding)
+            self.tool.set_payload(holding)  # before the first motion (robot.send_tool)
             # from the first move on, the controller stops the program unless every poll kicks it
             if not self.call("arm_watchdog", s.watchdog_hz):
                 raise _Fault("the controller refused to arm the RTDE watchdog")
@@ -375,7 +343,7 @@ class _Sender:
                     stop = start + 1  # resuming at a grip/release waypoint: go there, switch, go on
                 stop = min([stop] + [k + 1 for k in switch if start < k < stop])
                 self.send_chunk(start, stop, result)
-                self.after_waypoint(stop - 1)
+                self.tool.after_waypoint(stop - 1)
                 first = False
                 if stop == n:
                     break

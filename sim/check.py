@@ -24,12 +24,14 @@ from pathlib import Path
 
 import numpy as np
 
+from fabkit.errors import InputError
 from sim.check_events import (along_path, collision_events, limit_events, singular_events, speed_events,
                               waypoint_events)
 from sim.interpolate import CheckSettings, Dense, Program, interpolate_program
 from sim.panel import PanelModel
 from sim.problems import KINDS, Event, Problem, merge_events
-from sim.toolpath_program import fold_file_of, fold_progress, grip_face_of, load_source_panel, program_from_toolpath
+from sim.toolpath_program import (fold_file_of, fold_progress, grip_face_of, load_source_fold, program_from_toolpath,
+                                  source_panel)
 
 __all__ = ["CheckSettings", "Problem", "Event", "CheckReport", "Program", "Dense", "ToolpathCheck",
            "interpolate_program", "check_program", "check_toolpath", "run_toolpath_check", "program_from_toolpath",
@@ -63,6 +65,7 @@ class CheckReport:
     along_path: dict = field(default_factory=dict)  # per-waypoint clearance and joint-speed ratio
     cell_sha256: str = ""
     fold: dict | None = None
+    loads: dict | None = None  # the sheet's fold-load verdicts per state (`sim.check_loads`)
 
     def to_json(self) -> dict:
         return {
@@ -85,6 +88,7 @@ class CheckReport:
             "panel_faces": self.panel_faces,
             "notes": list(self.notes),
             "along_path": self.along_path,
+            "loads": self.loads,
         }
 
 
@@ -157,12 +161,16 @@ class ToolpathCheck:
 
 def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_panel: bool = True,
                        thickness: float | None = None, settings: CheckSettings = CheckSettings(),
-                       on_progress=None) -> ToolpathCheck:
+                       on_progress=None, sheet=None) -> ToolpathCheck:
     """Check a `robot.toolpath.Toolpath` (or a PATH.json path) in `cell` with its panel.
 
     The panel comes from `fold`, else from the FOLD file the toolpath's source names (relative
     names resolve against the PATH.json's folder); its sha256 must equal the one recorded at
     planning. `use_panel=False` checks against the cell's obstacles only (noted in the report).
+
+    A toolpath with a `sheet` record (or a `sheet`, a `fabkit.sheet.SheetSpec`, given for one
+    planned rigid) is also checked for its fold loads per state (`sim.check_loads`); its panel is
+    posed in the compensated states the program follows, `thickness` (default: the sheet's) thick.
     """
     from robot.toolpath import Toolpath
 
@@ -171,11 +179,28 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
         tp = toolpath
     else:
         tp, base_dir = Toolpath.load(toolpath), Path(toolpath).parent
+    from sim.check_loads import check_sheet_loads, fold_states_model, resolve_sheet, slab_offset
+
     sha = tp.sha256
     prog = program_from_toolpath(tp, cell, sha256=sha)
-    panel, fold_path, fold_sha = (load_source_panel(tp, cell, fold, base_dir=base_dir, thickness=thickness)
-                                  if use_panel else (None, None, None))
+    spec, recorded = resolve_sheet(tp, sheet)
+    model, fold_path, fold_sha = (load_source_fold(tp, fold, base_dir=base_dir) if use_panel or spec is not None
+                                  else (None, None, None))
+    if spec is not None and model is None:
+        raise InputError("the toolpath folds a sheet: its fold loads need the FOLD file it was planned from "
+                         "(pass --fold)", source="PATH.json")
+    panel = None
+    if use_panel and model is not None:
+        states = fold_states_model(model, spec, recorded, str(fold_path))
+        t = thickness or (spec.thickness if spec is not None else None)
+        panel = source_panel(tp, cell, states, fold_path, t, slab_offset(tp, spec, t))
     report, dense = check_program(prog, cell, panel, settings, on_progress=on_progress)
+    if spec is not None:
+        loads = check_sheet_loads(tp, spec, model, cell, recorded=recorded)
+        problems = tuple(sorted(report.problems + loads.problems,
+                                key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
+        report = replace(report, problems=problems, ok=not problems, loads=loads.record,
+                         notes=report.notes + loads.notes)
     notes = report.notes
     if tp.cell != cell.name or tp.cell_sha256 != getattr(cell, "sha256", ""):
         notes += (f"the toolpath was planned for cell {tp.cell!r} (cell file sha256 {tp.cell_sha256[:12]}…) and "
@@ -187,8 +212,8 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
 
 def check_toolpath(toolpath, cell, *, fold: str | Path | None = None, use_panel: bool = True,
                    thickness: float | None = None, settings: CheckSettings = CheckSettings(),
-                   on_progress=None) -> CheckReport:
+                   on_progress=None, sheet=None) -> CheckReport:
     """The check report of a toolpath in `cell` (`run_toolpath_check`); `report.to_json()` is the
     CHECK.json `fabkit check` writes for the same inputs."""
     return run_toolpath_check(toolpath, cell, fold=fold, use_panel=use_panel, thickness=thickness,
-                              settings=settings, on_progress=on_progress).report
+                              settings=settings, on_progress=on_progress, sheet=sheet).report

@@ -2,7 +2,8 @@
 
 MuJoCo collides a mesh as its convex hull, so a folded panel given as one mesh would fill the space
 between its wings. Each face therefore becomes its own convex mesh: the face polygon in a local
-frame (origin at its centroid, z along its best-fit normal) extruded by +-thickness/2. A fold state
+frame (origin at its centroid, z along its best-fit normal) extruded by +-thickness/2, or to one side
+of the face when the face is one surface of a real sheet (a top-face design lies on the sheet). A fold state
 moves every face rigidly; the pose of a piece in a state is the best rigid fit (Kabsch) of its
 local polygon onto the state's vertex coordinates, and the fit residual says how far the state
 departs from a rigid fold (curved-crease states bend a little inside a face).
@@ -56,7 +57,8 @@ class PanelPieces:
 
 def _face_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Centroid and rotation (columns x, y, z) of a face's vertices; z is the best-fit plane normal
-    (smallest principal direction; its sign does not matter for a prism symmetric about the plane).
+    (smallest principal direction; its sign matters only for an offset slab, which `panel_pieces` turns
+    to the front normal).
     The vertices need no order, so a polygon stored as triangles works as well."""
     c = points.mean(axis=0)
     p = points - c
@@ -67,15 +69,22 @@ def _face_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return c, np.column_stack([x, y, np.cross(x, y)])
 
 
-def panel_pieces(vertices, faces, thickness: float = DEFAULT_THICKNESS) -> PanelPieces:
+def panel_pieces(vertices, faces, thickness: float = DEFAULT_THICKNESS, *, normals=None,
+                 offset: float = 0.0) -> PanelPieces:
     """Build the pieces from reference vertex coordinates (n, 3) in the panel frame (usually the
     flat crease pattern) and faces (sequences of vertex ids: a polygon, or all the distinct
-    vertices of a polygon stored as triangles)."""
+    vertices of a polygon stored as triangles).
+
+    The slab is `thickness` thick, centred on the face (`offset` 0) or with its centre `offset` [m]
+    along each face's front normal (`normals` (F, 3), required then): a sheet whose design surface
+    is its top face lies behind it (offset -t/2)."""
     V = np.asarray(vertices, dtype=np.float64)
     if V.ndim != 2 or V.shape[1] != 3 or not np.isfinite(V).all():
         raise ValueError("panel vertices must be a finite (n, 3) array")
     if not thickness > 0:
         raise ValueError("panel thickness must be positive")
+    if offset and normals is None:
+        raise ValueError("an offset slab needs the faces' front normals")
     polys, prisms, fs = [], [], []
     for f, face in enumerate(faces):
         idx = np.unique(np.asarray(face, dtype=np.int64))
@@ -85,11 +94,14 @@ def panel_pieces(vertices, faces, thickness: float = DEFAULT_THICKNESS) -> Panel
             c, R = _face_frame(V[idx])
         except ValueError as exc:
             raise ValueError(f"panel face {f}: {exc}") from None
+        if normals is not None and float(R[:, 2] @ np.asarray(normals[f], dtype=np.float64)) < 0:
+            R = np.column_stack([R[:, 1], R[:, 0], -R[:, 2]])  # z along the front normal, still right-handed
         local = (V[idx] - c) @ R
         local[:, 2] = 0.0  # project onto the face plane (a relaxed face is planar to ~1e-4)
         h = np.array([0.0, 0.0, thickness / 2])
+        z = np.array([0.0, 0.0, offset])
         polys.append(local)
-        prisms.append(np.vstack([local - h, local + h]))
+        prisms.append(np.vstack([local + z - h, local + z + h]))
         fs.append(idx)
     return PanelPieces(tuple(polys), tuple(prisms), tuple(fs), float(thickness))
 
@@ -202,14 +214,14 @@ class PanelModel:
 
 
 def panel_model(reference_vertices, faces, states_vertices, fixture, *, grip_face: int | None = None,
-                thickness: float = DEFAULT_THICKNESS, face_ids=None) -> PanelModel:
+                thickness: float = DEFAULT_THICKNESS, face_ids=None, normals=None, offset: float = 0.0) -> PanelModel:
     """Pieces from the reference (flat) vertices and faces, posed for each state in the world.
 
     `states_vertices` (S, n, 3): vertex coordinates of every fold state in the panel frame;
     `fixture` 4x4: panel frame -> world; `face_ids` the id of each face (default 0..F-1), used to
-    name the pieces `face_<id>`.
+    name the pieces `face_<id>`; `normals`, `offset`: the slab's side (`panel_pieces`).
     """
-    pieces = panel_pieces(reference_vertices, faces, thickness)
+    pieces = panel_pieces(reference_vertices, faces, thickness, normals=normals, offset=offset)
     S = np.asarray(states_vertices, dtype=np.float64)
     if S.ndim != 3 or S.shape[1:] != np.asarray(reference_vertices).shape:
         raise ValueError(f"fold states must be (S, {len(reference_vertices)}, 3), got {S.shape}")
@@ -226,12 +238,13 @@ def panel_model(reference_vertices, faces, states_vertices, fixture, *, grip_fac
 
 
 def panel_from_fold(model, fixture, *, grip_face_id: int | None = None, thickness: float = DEFAULT_THICKNESS,
-                    source: str | None = None) -> PanelModel:
+                    source: str | None = None, offset: float = 0.0) -> PanelModel:
     """The panel of a `fabkit.fold.FoldModel`: one piece per polygon (triangles of one polygon are
     grouped by `faces_fabkit:polygon`, as `fabkit.frames.face_groups` does), reference shape from the
     key frame (the crease pattern), poses for every fold state (`fabkit.frames.fold_positions`,
-    the same states the toolpath's `state` indexes). `grip_face_id`: polygon id of the grip face."""
-    from fabkit.frames import face_groups, fold_positions
+    the same states the toolpath's `state` indexes). `grip_face_id`: polygon id of the grip face.
+    `offset` [m]: the slab's centre along the faces' front normals (`panel_pieces`)."""
+    from fabkit.frames import face_groups, fold_positions, group_centroids_normals
 
     groups = face_groups(model.faces_vertices, model.faces_data, source)
     grip = None
@@ -242,5 +255,6 @@ def panel_from_fold(model, fixture, *, grip_face_id: int | None = None, thicknes
             from fabkit.errors import InputError
 
             raise InputError(f"grip face {grip_face_id} is not a face of the panel", source=source) from None
+    normals = group_centroids_normals(groups, np.asarray(model.vertices_coords))[1] if offset else None
     return panel_model(model.vertices_coords, groups.vertices, fold_positions(model), fixture, grip_face=grip,
-                       thickness=thickness, face_ids=groups.ids)
+                       thickness=thickness, face_ids=groups.ids, normals=normals, offset=offset)

@@ -19,7 +19,8 @@ from robot.ur_motion import PayloadError
 from sim.interpolate import Program
 from sim.panel import DEFAULT_THICKNESS, PanelModel, check_fold_coordinates, panel_from_fold
 
-__all__ = ["program_from_toolpath", "fold_progress", "fold_file_of", "grip_face_of", "load_source_panel"]
+__all__ = ["program_from_toolpath", "fold_progress", "fold_file_of", "grip_face_of", "load_source_fold", "source_panel",
+           "load_source_panel"]
 
 
 def program_from_toolpath(tp, cell, sha256: str | None = None) -> Program:
@@ -87,15 +88,11 @@ def grip_face_of(tp):
     return None
 
 
-def load_source_panel(tp, cell, fold: str | Path | None = None, *, base_dir: str | Path | None = None,
-                      thickness: float | None = None) -> tuple[PanelModel | None, Path | None, str | None]:
-    """The panel of the toolpath's FOLD file: `(panel, path, sha256)`, `(None, None, None)` when the
-    toolpath names none and `fold` is None.
-
-    `fold` overrides the file the source names; either way its sha256 must equal the one the
-    toolpath recorded (`source.sha256`) when it recorded one. `InputError` for a missing file, a
-    changed file, non-finite or absurd coordinates, a grip face not in the panel, or too few states.
-    """
+def load_source_fold(tp, fold: str | Path | None = None, *, base_dir: str | Path | None = None):
+    """The FOLD model the toolpath was planned from: `(model, path, sha256)`, `(None, None, None)`
+    when the toolpath names none and `fold` is None. `fold` overrides the file the source names;
+    either way its sha256 must equal the one the toolpath recorded (`source.sha256`) when it
+    recorded one. `InputError` for a missing or changed file and non-finite or absurd coordinates."""
     from fabkit.io.fold import load_fold
 
     path = Path(fold) if fold is not None else fold_file_of(tp, base_dir)
@@ -111,13 +108,31 @@ def load_source_panel(tp, cell, fold: str | Path | None = None, *, base_dir: str
                          "(the fold states changed since planning)", source=str(path))
     model = load_fold(path)
     check_fold_coordinates(model, source=str(path))
+    return model, path, got
+
+
+def source_panel(tp, cell, model, path, thickness: float | None = None, offset: float = 0.0) -> PanelModel:
+    """The panel the check poses: `model`'s faces in its fold states (the design states, or the
+    springback-compensated ones a sheet program follows), `thickness` [m] thick, its slab centred
+    `offset` [m] along the faces' front normals. `InputError` for a grip face not in the panel or
+    too few states."""
     try:
         panel = panel_from_fold(model, cell.fixture, grip_face_id=grip_face_of(tp),
-                                thickness=thickness or DEFAULT_THICKNESS, source=str(path))
+                                thickness=thickness or DEFAULT_THICKNESS, source=str(path), offset=offset)
     except ValueError as exc:
         raise InputError(str(exc), source=str(path)) from None
     top = max((w.state for w in tp.waypoints), default=0)
     if top > panel.n_states - 1:
         raise InputError(f"the toolpath uses fold state {top} but the file has {panel.n_states} states",
                          source=str(path))
-    return panel, path, got
+    return panel
+
+
+def load_source_panel(tp, cell, fold: str | Path | None = None, *, base_dir: str | Path | None = None,
+                      thickness: float | None = None) -> tuple[PanelModel | None, Path | None, str | None]:
+    """The panel of the toolpath's FOLD file (`load_source_fold`, `source_panel`): `(panel, path,
+    sha256)`, `(None, None, None)` when the toolpath names none and `fold` is None."""
+    model, path, got = load_source_fold(tp, fold, base_dir=base_dir)
+    if model is None:
+        return None, None, None
+    return source_panel(tp, cell, model, path, thickness), path, got

@@ -135,3 +135,51 @@ def test_labels_sit_inside_the_sheet_and_closed_meshes_are_refused(folded_patter
         cut_pattern(tetra, np.zeros((4, 2)), crease_assignment(tetra))
     with pytest.raises(ValueError, match="one row per vertex"):
         cut_pattern(mesh, dev.uv[:-1], assign)
+
+
+def _label_texts_dxf(path):
+    return [t.dxf.text for t in ezdxf.readfile(path).modelspace().query('TEXT[layer=="LABEL"]')]
+
+
+@pytest.mark.parametrize("fold", [np.radians(70), np.radians(-40)])
+def test_the_label_layer_says_which_face_is_up(tmp_path, fold):
+    """A development that keeps the faces' turning sense shows the front (the side the face normals
+    point to), a mirrored one the back; a valley folds toward the front, so with the front up it
+    comes up toward the viewer, as the mark says."""
+    from fabkit.cutfiles import face_up
+
+    mesh, _ = folded_grid(fold)
+    dev = develop(mesh)
+    assign = crease_assignment(mesh)
+    side = face_up(mesh, dev.uv)
+    mirrored = dev.uv * np.array([-1.0, 1.0])
+    assert {side, face_up(mesh, mirrored)} == {"front", "back"}
+    # the fold's sense against the face normals: across a crease edge, the far face's centroid lies on
+    # the normal side of the near face for a valley (edge faces share the crease)
+    e = int(assign.edges_with("V" if fold > 0 else "M")[0])
+    fa, fb = mesh.topology.edge_faces[e]
+    fc = [mesh.vertices[mesh.faces_list()[f]].mean(axis=0) for f in (fa, fb)]
+    n = mesh.face_normals[fa]
+    assert (np.dot(fc[1] - fc[0], n) > 0) == (fold > 0)
+    for uv, want in ((dev.uv, side), (mirrored, "back" if side == "front" else "front")):
+        pattern = cut_pattern(mesh, uv, assign, "P-3")
+        toward = "valleys" if want == "front" else "mountains"
+        path = tmp_path / f"{want}.dxf"
+        write_dxf(pattern, path)
+        assert f"FACE UP: {want.upper()} ({toward} fold up)" in _label_texts_dxf(path)
+        write_svg(pattern, tmp_path / f"{want}.svg")
+        root = ET.parse(tmp_path / f"{want}.svg").getroot()
+        label = next(g for g in root.iter(f"{SVG}g") if g.get("id") == "LABEL")
+        assert f"FACE UP: {want.upper()} ({toward} fold up)" in [t.text for t in label.iter(f"{SVG}text")]
+
+
+def test_unfold_with_a_sheet_notes_it_beside_the_face_up_mark(tmp_path):
+    from fabkit.cli import main as fabkit_main
+
+    obj = tmp_path / "panel.obj"
+    assert fabkit_main(["generate", "reflect", "-o", str(obj), "-q", "--columns", "8", "--rows", "2"]) == 0
+    dxf = tmp_path / "p.dxf"
+    assert fabkit_main(["unfold", str(obj), "-o", str(tmp_path / "flat.obj"), "--dxf", str(dxf), "-q",
+                        "--material", "5052-H32", "--thickness", "1mm", "--crease", "grooved"]) == 0
+    (mark,) = [t for t in _label_texts_dxf(dxf) if t.startswith("FACE UP:")]
+    assert "1 mm 5052-H32, design surface top" in mark and "valleys front, mountains back" in mark

@@ -37,7 +37,7 @@ def test_unfold_writes_everything(tmp_path, panel, capsys):
     assert report["development"]["max_relative_deviation"] <= 1e-9
     assert report["creases"]["V"] > 0 and report["creases"]["source"].startswith("face_data")
     doc = ezdxf.readfile(out["dxf"])
-    assert [t.dxf.text for t in doc.modelspace().query("TEXT")] == ["A1"]
+    assert [t.dxf.text for t in doc.modelspace().query("TEXT")] == ["A1", "FACE UP: FRONT (valleys fold up)"]
     assert out["png"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert out["svg"].read_text().startswith("<?xml")
 

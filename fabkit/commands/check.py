@@ -21,6 +21,13 @@ report `sim.check.check_toolpath` returns; exit 1 if there is any problem, 2 for
 (including a PATH.json whose stored sha256 does not match the document, a changed FOLD file, and
 non-finite or absurd coordinates).
 
+A toolpath planned with --material (fabkit toolpath) is also checked for its fold loads: for every
+crease the arm folds, per fold state, the fold moment against the arm's wrist torque and rated
+payload and the vacuum cup's holding force (CHECK.json `loads`: moment, demand, capacity, ratio,
+verdict per state); an exceeded load is a problem naming the crease and the remedy (groove the
+crease, a bigger arm, push instead of pull, two arms), and the panel is posed in the
+springback-compensated states with the sheet's thickness (docs/sheet.md).
+
 Renders (offscreen, EGL or OSMesa): --render F.png draws waypoint K (default: the first problem,
 else the middle of the fold) with an offending pair in red; --render F.mp4 plays the whole program.
 
@@ -36,8 +43,13 @@ def add_arguments(parser) -> None:
     parser.add_argument("--fold", metavar="SEQ.fold", help="fold states of the panel (default: the FOLD file "
                         "the toolpath's source names)")
     parser.add_argument("--no-panel", action="store_true", help="check against the cell's obstacles only")
-    parser.add_argument("--thickness", type=float, default=None, metavar="M",
-                        help="sheet thickness of the panel pieces in metres (default 0.001)")
+    from fabkit.commands._sheet import add_sheet_arguments
+
+    add_sheet_arguments(parser, material_help=(
+        "check the fold loads for this sheet (a name from `fabkit materials` or a .toml file); only for a "
+        "toolpath planned without one - a toolpath planned with --material is checked for its own sheet, "
+        "and a different one is refused. Without --material, --thickness alone sets the panel pieces' "
+        "thickness (default 1mm, or the toolpath's sheet)"))
     parser.add_argument("--render", metavar="F.png|F.mp4", action="append", default=[],
                         help="write a picture of one waypoint or a movie (repeat for both)")
     parser.add_argument("--waypoint", type=int, metavar="K", help="waypoint to render (PNG)")
@@ -87,8 +99,7 @@ def run(args) -> int:
         raise InputError("no display for the viewer (DISPLAY is not set)", source="--view")
     if not 2 <= args.frames <= 10000:
         raise InputError(f"must be in 2..10000, got {args.frames}", source="--frames")
-    if args.thickness is not None and not 0 < args.thickness < 0.05:
-        raise InputError(f"must be in (0, 0.05) m, got {args.thickness}", source="--thickness")
+    sheet, slab = _sheet_options(args)
     out = Path(args.output)
     if not out.parent.is_dir():
         raise InputError("output directory does not exist", source=str(out))
@@ -110,7 +121,7 @@ def run(args) -> int:
 
         # the library check: refuses an edited PATH.json, loads and verifies the FOLD it names (or --fold)
         result = run_toolpath_check(args.toolpath, cell, fold=args.fold, use_panel=not args.no_panel,
-                                    thickness=args.thickness, settings=CheckSettings(), on_progress=on_progress)
+                                    thickness=slab, settings=CheckSettings(), on_progress=on_progress, sheet=sheet)
     elapsed = time.perf_counter() - t0
     report, dense, prog, panel, fold_path = result.report, result.dense, result.program, result.panel, result.fold_path
     write_json(out, report.to_json())
@@ -136,6 +147,22 @@ def run(args) -> int:
     return 0 if report.ok else 1
 
 
+def _sheet_options(args):
+    """(sheet, slab thickness): the `SheetSpec` --material names (None without --material), or the
+    panel pieces' thickness --thickness alone gives."""
+    if args.material is None:
+        if args.crease != "plain" or args.ligament is not None or args.bend_radius is not None:
+            raise InputError("--crease, --ligament and --bend-radius need --material", source="--material")
+        if args.thickness is None:
+            return None, None
+        from fabkit.materials import parse_length
+
+        return None, parse_length(args.thickness, "--thickness")
+    from fabkit.commands._sheet import sheet_from_args
+
+    return sheet_from_args(args), None
+
+
 def _summary(args, report, elapsed: float, fold_path) -> None:
     clear = ("—" if report.min_clearance_m is None else
              f"{report.min_clearance_m * 1e3:.1f} mm ({' × '.join(report.min_clearance_pair)})")
@@ -143,6 +170,12 @@ def _summary(args, report, elapsed: float, fold_path) -> None:
     head = "ok" if report.ok else f"{len(report.problems)} problem(s)"
     say(args, f"check: {head} — {report.waypoints} waypoints, {report.configs_checked} configurations in "
               f"{elapsed:.2f} s, {panel}, min clearance {clear}, cycle ≈ {report.cycle_time_s:.1f} s")
+    if report.loads is not None:
+        worst = max((c["ratio"] for st in report.loads["states"] for c in st["checks"] if c["ratio"] is not None),
+                    default=None)
+        say(args, f"  fold loads ({report.loads['sheet']['material']}, {report.loads['sheet']['crease']}) on the "
+                  f"{report.loads['arm']}: {'ok' if report.loads['ok'] else 'EXCEEDED'}"
+                  + ("" if worst is None else f", worst {worst:.0%} of a rating"))
     for p in report.problems[:20]:
         say(args, f"  waypoint {p.waypoint}: {p.kind}: {p.detail}")
     if len(report.problems) > 20:

@@ -65,6 +65,10 @@ def add_arguments(parser) -> None:
     from fabkit.commands._sheet import add_sheet_arguments  # sheet hook: --material, --thickness, ...
 
     add_sheet_arguments(parser, tool_mass=True)
+    parser.add_argument("--design-surface", choices=("top", "mid", "bottom"), default="top",
+                        help="with --material: which surface of the sheet the FOLD's faces are (default top: the "
+                             "face the cup grips); the grip standoff grows by 0, t/2 or t so the cup sits on the "
+                             "sheet's top face")
     parser.add_argument("--check-loads", action="store_true",
                         help="with --material: fail (exit 1, nothing written) when a fold load exceeds the arm's "
                              "or the cup's rating (default: record the verdicts and warn)")
@@ -122,6 +126,8 @@ def run(args) -> int:
     from fabkit.commands._sheet import sheet_from_args
 
     spec = sheet_from_args(args)
+    if spec.rigid and args.design_surface != "top":
+        raise InputError("needs a --material other than none", source="--design-surface")
     design_model, compensated = model, None
     if not spec.rigid:
         from fabkit.sheet.compensate import compensate_sequence
@@ -131,7 +137,10 @@ def run(args) -> int:
     # ---- end of sheet hook ----
     frames = planning_frames(model, args.grip_face, source=args.fold)
     source = fold_source(args.fold, frames.n_states)
-    options = PlanOptions(approach_distance=args.approach, grip_standoff=args.standoff,
+    from fabkit.sheet import front_face_offset  # sheet hook: the cup grips the sheet's top face
+
+    standoff = args.standoff + (0.0 if spec.rigid else front_face_offset(spec, args.design_surface))
+    options = PlanOptions(approach_distance=args.approach, grip_standoff=standoff,
                           tool_yaw=None if args.tool_yaw is None else math.radians(args.tool_yaw),
                           max_joint_step=math.radians(args.max_joint_step),
                           params=replace(MotionParams(), fold_speed=args.fold_speed))

@@ -156,7 +156,11 @@ def run(args) -> int:
                         "face_up": f"{args.design_surface} face of the design (cut files are seen from it)",
                         "crease_strip_mm": dev.details.get("crease_strip_mm")}
     # ---- end of sheet hook ----
-    pattern = cut_pattern(mesh, dev.uv, assignment, panel_id, label_edges=args.label_edges) \
+    note = "" if sheet_report is None else (f"{spec.thickness * 1000:g} mm {spec.material.name}, design surface "
+                                           f"{args.design_surface}" + ("; grooves on the inside of each fold: "
+                                                                       "valleys front, mountains back"
+                                                                       if spec.prep.kind == "grooved" else ""))
+    pattern = cut_pattern(mesh, dev.uv, assignment, panel_id, label_edges=args.label_edges, sheet_note=note) \
         if (args.dxf or args.svg) else None
 
     problems = development_problems(dev, args.max_error)

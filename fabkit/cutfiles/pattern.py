@@ -13,7 +13,7 @@ from fabkit.cutfiles.creases import CreaseAssignment, chain_edges
 from fabkit.errors import MeshError
 from fabkit.mesh import PolyMesh
 
-__all__ = ["CutPattern", "Label", "cut_pattern", "LAYERS", "MM_PER_M"]
+__all__ = ["CutPattern", "Label", "cut_pattern", "face_up", "face_up_text", "LAYERS", "MM_PER_M"]
 
 MM_PER_M = 1000.0
 
@@ -23,7 +23,7 @@ LAYERS = {
     "MOUNTAIN": (1, "#d62728", "mountain fold score line"),
     "VALLEY": (5, "#1f4fd6", "valley fold score line"),
     "SCORE": (6, "#b000b0", "crease of unknown mountain/valley sense"),
-    "LABEL": (3, "#2ca02c", "panel id and edge ids (engrave or ignore)"),
+    "LABEL": (3, "#2ca02c", "panel id, the face up, edge ids (engrave or ignore)"),
 }
 _SCORE_LAYER = {"M": "MOUNTAIN", "V": "VALLEY", "U": "SCORE"}
 
@@ -50,9 +50,32 @@ class CutPattern:
     panel_id: str
 
 
+def face_up(mesh: PolyMesh, uv: np.ndarray) -> str:
+    """Which face of the panel the drawing shows, seen from above: "front" (the side the mesh's face
+    normals point to, by its vertex order) when the development keeps the faces' turning sense,
+    "back" when it mirrors them (total signed area of the faces in `uv`)."""
+    P = np.asarray(uv, dtype=np.float64)[:, :2]
+    t = mesh.topology
+    x, y = P[t.face_indices, 0], P[t.face_indices, 1]
+    nxt = np.arange(len(t.face_indices)) + 1  # the next corner of the same face (wrapping)
+    ends = t.face_offsets[1:] - 1
+    nxt[ends] = t.face_offsets[:-1]
+    return "front" if float(np.sum(x * y[nxt] - x[nxt] * y)) >= 0 else "back"
+
+
+def face_up_text(side: str, note: str = "") -> str:
+    """The LABEL layer's face-up mark: the side up, and which folds then come up toward the viewer
+    (a valley has the front face inside)."""
+    toward = "valleys" if side == "front" else "mountains"
+    return f"FACE UP: {side.upper()} ({toward} fold up){f'; {note}' if note else ''}"
+
+
 def cut_pattern(mesh: PolyMesh, uv: np.ndarray, assignment: CreaseAssignment, panel_id: str = "",
-                label_edges: bool = False) -> CutPattern:
-    """Build the drawing of `uv` (metres, the panel's vertex order) with `assignment`'s creases."""
+                label_edges: bool = False, sheet_note: str = "") -> CutPattern:
+    """Build the drawing of `uv` (metres, the panel's vertex order) with `assignment`'s creases.
+
+    The LABEL layer always carries the face-up mark (`face_up`), with `sheet_note` (e.g. the
+    sheet and where its grooves go) after it."""
     P = np.asarray(uv, dtype=np.float64)[:, :2] * MM_PER_M
     if P.shape[0] != mesh.n_vertices or not np.all(np.isfinite(P[mesh.topology.used_vertex_mask])):
         raise ValueError(f"uv must be finite with one row per vertex ({mesh.n_vertices}), got shape {P.shape}")
@@ -73,10 +96,13 @@ def cut_pattern(mesh: PolyMesh, uv: np.ndarray, assignment: CreaseAssignment, pa
     labels = []
     t = mesh.topology
     fc = np.add.reduceat(P[t.face_indices], t.face_offsets[:-1], axis=0) / t.face_sizes[:, None]
+    # labels go at the centroids of the faces nearest the development's centroid: inside the sheet
+    near = np.argsort(np.linalg.norm(fc - P[t.used_vertex_mask].mean(axis=0), axis=1))
     if panel_id:
-        # the label goes at the centroid of the face nearest the development's centroid: inside the sheet
-        f = int(np.argmin(np.linalg.norm(fc - P[t.used_vertex_mask].mean(axis=0), axis=1)))
+        f = int(near[0])
         labels.append(Label(str(panel_id), float(fc[f, 0]), float(fc[f, 1]), h))
+    f = int(near[1] if panel_id and len(near) > 1 else near[0])
+    labels.append(Label(face_up_text(face_up(mesh, uv), sheet_note), float(fc[f, 0]), float(fc[f, 1]), h / 2))
     if label_edges:
         # edge ids sit just inside the sheet: 40 % of the way from the edge's midpoint to its face's centroid
         b = np.flatnonzero(t.boundary_edge_mask)

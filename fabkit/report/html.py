@@ -222,6 +222,10 @@ def write_report_html(out: Path, summary: dict) -> Path:
         parts.append("<figure><video controls muted loop width='520' src='check.mp4'></video>"
                      "<figcaption>the whole program in the MuJoCo cell (check.mp4)</figcaption></figure>")
 
+    from fabkit.report.sheet import sheet_section
+
+    toolpath_doc = first("toolpath").get("report") or {}
+    parts.append(sheet_section(path_json or (toolpath_doc if "waypoints" in toolpath_doc else {}), check_json))
     parts.append("<h2>Numbers per stage</h2>")
     for s in stages:
         table = _numbers_table(s.get("report") or {})

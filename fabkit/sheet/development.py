@@ -19,7 +19,7 @@ import math
 from fabkit.errors import InputError
 from fabkit.sheet.spec import SheetSpec
 
-__all__ = ["DESIGN_SURFACES", "k_factor", "din6935_k_factor", "neutral_offset", "bend_allowance",
+__all__ = ["DESIGN_SURFACES", "front_face_offset", "k_factor", "din6935_k_factor", "neutral_offset", "bend_allowance",
            "design_offset", "crease_correction", "flat_length"]
 
 DESIGN_SURFACES = ("top", "mid", "bottom")
@@ -62,6 +62,16 @@ def design_offset(spec: SheetSpec, alpha: float, design_surface: str = "top") ->
         return spec.thickness / 2
     top_inside = alpha >= 0
     return 0.0 if top_inside == (design_surface == "top") else spec.thickness
+
+
+def front_face_offset(spec: SheetSpec, design_surface: str = "top") -> float:
+    """How far [m] the sheet's top (front) face lies in front of the design surface, along the
+    front normal: 0 for the top face as the design surface, t/2 for the mid-surface, t for the
+    bottom face. The cup grips the front face, so this is the TCP standoff the sheet adds."""
+    if design_surface not in DESIGN_SURFACES:
+        raise InputError(f"unknown design surface {design_surface!r} (choose {', '.join(DESIGN_SURFACES)})",
+                         source="--design-surface")
+    return {"top": 0.0, "mid": 0.5, "bottom": 1.0}[design_surface] * spec.thickness
 
 
 def crease_correction(spec: SheetSpec, alpha: float, design_surface: str = "top") -> float:

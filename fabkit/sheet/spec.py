@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from fabkit.errors import InputError
 from fabkit.materials import CreasePrep, Material, crease_prep
 
-__all__ = ["SheetSpec", "sheet_spec", "minimum_inside_radius", "check_bend_radius", "BendRadiusError"]
+__all__ = ["SheetSpec", "sheet_spec", "sheet_of", "minimum_inside_radius", "check_bend_radius", "BendRadiusError"]
 
 
 class BendRadiusError(InputError):
@@ -77,6 +77,36 @@ def sheet_spec(material: Material, thickness: float | None, prep: str = "plain",
     if not (math.isfinite(r) and r >= 0):
         raise InputError(f"must be >= 0, got {r}", source="--bend-radius")
     return SheetSpec(material, float(thickness), p, r)
+
+
+def _length(value, name: str, allow_zero: bool = False) -> float | None:
+    """A length given as metres (a number) or as text with its unit ('1mm'), or None."""
+    from fabkit.materials import parse_length
+
+    if value is None:
+        return None
+    if isinstance(value, str):
+        return parse_length(value, name, allow_zero=allow_zero)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"expected metres or a length with its unit, got {value!r}", source=name)
+    return float(value)
+
+
+def sheet_of(material="none", thickness=None, crease: str = "plain", *, ligament=None, bend_radius=None,
+             uncut_fraction: float | None = None) -> SheetSpec:
+    """The sheet of an API call: `material` a `Material`, a packaged name or a .toml path (default
+    none: rigid); lengths in metres or as text with their unit ("1mm"). As the commands'
+    --material, --thickness, --crease, --ligament and --bend-radius (the same refusals)."""
+    from fabkit.materials import get_material
+
+    m = material if isinstance(material, Material) else get_material(material)
+    t = _length(thickness, "--thickness")
+    lig = _length(ligament, "--ligament")
+    r = _length(bend_radius, "--bend-radius", allow_zero=True)
+    if m.rigid and (t is not None or crease != "plain" or lig is not None or r is not None):
+        raise InputError("--thickness, --crease, --ligament and --bend-radius need a --material other than none",
+                         source="--material")
+    return sheet_spec(m, t, crease, ligament=lig, uncut_fraction=uncut_fraction, inside_radius=r)
 
 
 def check_bend_radius(spec: SheetSpec, crease: str = "crease", inside_radius: float | None = None) -> None:
