@@ -36,7 +36,7 @@ from fabkit.errors import InputError
 from fabkit.results import Checked, Flat, Folds, Panel, Program, Relaxed, Sent
 from fabkit.verdicts import DEFAULT_MAX_ERROR, DEFAULT_MAX_MOVE, DEFAULT_TARGET_RTOL, MAX_REFOLD_FRAMES
 
-__all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "send", "fold_source",
+__all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "render", "send", "fold_source",
            "Panel", "Relaxed", "Flat", "Folds", "Program", "Checked", "Sent"]
 
 #: file names in the working folder (those of `fabkit demo`)
@@ -217,18 +217,47 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
 
 def check(program: Program, *, use_panel: bool = True, thickness: float | None = None) -> Checked:
     """The MuJoCo check of `program` (`fabkit check`), from its PATH.json and the FOLD file it
-    names; writes `check.json` next to them. `to_json()` is that CHECK.json."""
+    names; writes `check.json` next to them. `to_json()` is that CHECK.json. `thickness` [m]: the
+    sheet thickness of the panel pieces (default 1 mm)."""
     from fabkit.io.jsonfile import write_json
     from sim.check import CheckSettings, run_toolpath_check
 
     _require_ok(program, "check")
+    if thickness is not None and not 0 < thickness < 0.05:
+        raise InputError(f"must be in (0, 0.05) m, got {thickness}", source="thickness")
     result = run_toolpath_check(str(program.path_file), program.cell, use_panel=use_panel, thickness=thickness,
                                 settings=CheckSettings())
     report = result.report
     check_file = program.workdir / CHECK_NAME
     write_json(check_file, report.to_json())
     problems = tuple(f"waypoint {p.waypoint}: {p.kind}: {p.detail}" for p in report.problems)
-    return Checked(report=report, program=program, check_file=check_file, ok=bool(report.ok), problems=problems)
+    return Checked(report=report, program=program, check_file=check_file, ok=bool(report.ok), problems=problems,
+                   run=result)
+
+
+def render(checked: Checked, path: str | os.PathLike, *, waypoint: int | None = None,
+           size: tuple[int, int] = (640, 480), frames: int = 240) -> dict:
+    """A picture of a check (`fabkit check --render`): `path` ending in .png draws `waypoint`
+    (default: the first problem, else the middle of the fold) with an offending pair in red, .mp4
+    plays the whole program (at most `frames` frames). Needs offscreen OpenGL (EGL or OSMesa),
+    chosen before mujoco is first imported. -> what was drawn (path, waypoint or frames)."""
+    from sim.render import select_gl_backend
+
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".png", ".mp4"):
+        raise InputError("must end in .png or .mp4", source=str(path))
+    w, h = size
+    if not (16 <= w <= 1280 and 16 <= h <= 960):
+        raise InputError(f"{w}x{h} is outside 16x16 .. 1280x960", source="size")
+    if select_gl_backend() is None:
+        raise InputError("no offscreen OpenGL backend (install libegl1 libegl-mesa0 libgl1-mesa-dri, or libosmesa6; "
+                         "or set MUJOCO_GL=egl before anything imports mujoco)", source=str(path))
+    from sim.render_check import render_movie, render_waypoint
+
+    cell = checked.program.cell
+    if suffix == ".png":
+        return render_waypoint(checked.run, cell, path, size, waypoint=waypoint)
+    return render_movie(checked.run, cell, path, size, max_frames=frames)
 
 
 def send(program: Program, report: Checked, *, host: str, power_on: bool = False, unlock: bool = False,
