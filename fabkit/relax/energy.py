@@ -33,7 +33,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 
 from fabkit.mesh import MeshTopology
 from fabkit.relax.planes import (FaceGroup, covariance_normal_terms, dot_rows, face_groups, group_planes,
@@ -372,6 +371,8 @@ class EnergyModel:
         r = np.concatenate(parts_r)
         if not need_jacobian:
             return r, None
+        import scipy.sparse as sp  # on use: a panel already within tolerance never needs the Jacobian
+
         vals = np.concatenate(parts_v)[self._jkeep]
         data = np.bincount(self._jinv, weights=vals, minlength=self._jnnz)
         J = sp.csr_matrix((data, self._jindices, self._jindptr), shape=(self.n_rows, self.n_cols))
