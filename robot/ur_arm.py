@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["URModel", "MODELS", "get_model", "fk", "fk_tcp", "fk_frames", "jacobian", "pose_error", "wrap_angle"]
+__all__ = ["URModel", "MODELS", "HOME_Q", "get_model", "fk", "fk_tcp", "fk_frames", "jacobian", "pose_error", "wrap_angle"]
 
 _HALF_PI = np.pi / 2
 
@@ -64,6 +64,10 @@ MODELS: dict[str, URModel] = {
                      a=(0.0, -0.6127, -0.57155, 0.0, 0.0, 0.0), alpha=_ALPHA, q_min=_RANGE_MIN, q_max=_RANGE_MAX,
                      joint_speed_max=(120 * _DEG, 120 * _DEG) + (180 * _DEG,) * 4),
 }
+
+
+#: q = [0, -90, 90, -90, -90, 0] deg, UR's home configuration (tool pointing down).
+HOME_Q = (0.0, -_HALF_PI, _HALF_PI, -_HALF_PI, -_HALF_PI, 0.0)
 
 
 def get_model(name: str | URModel) -> URModel:
