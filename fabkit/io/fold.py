@@ -3,7 +3,7 @@
 Written by hand: FOLD is plain JSON and the only Python FOLD package on PyPI is a box-pleating
 tool; the reference implementation is JavaScript (npm `fold`), which the tests use to read our files.
 
-Layout we write (design.md, reference §1):
+Layout we write (docs/file-formats.md "FOLD 1.2"):
 
 - key frame = crease pattern: `frame_classes ["creasePattern"]`, `frame_unit "mm"`,
   `vertices_coords`, `edges_vertices`, `edges_assignment`, `edges_foldAngle` (degrees, valley +,
