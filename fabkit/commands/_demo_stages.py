@@ -64,8 +64,7 @@ def relax(run: DemoRun, done: dict) -> Outcome:
 
 
 def unfold(run: DemoRun, done: dict) -> Outcome:
-    from fabkit.cutfiles import cut_pattern, dxf_document, svg_text
-    from fabkit.io.atomic import atomic_path
+    from fabkit.cutfiles import cut_pattern, write_dxf, write_svg
     from fabkit.io.save import save_panel
     from fabkit.unfold.plot import plot_unfold_error
 
@@ -76,10 +75,8 @@ def unfold(run: DemoRun, done: dict) -> Outcome:
     save_panel(flat.mesh, files["mesh"], header=f"flat pattern of {run.path('relaxed.obj')} "
                                                 "(isometric, metres, z = 0)")
     pattern = cut_pattern(flat.folded, flat.development.uv, flat.creases, panel_id)
-    with atomic_path(files["dxf"]) as tmp:
-        dxf_document(pattern).saveas(tmp)
-    with atomic_path(files["svg"]) as tmp:
-        Path(tmp).write_text(svg_text(pattern), encoding="utf-8")
+    write_dxf(pattern, files["dxf"])
+    write_svg(pattern, files["svg"])
     plot_unfold_error(flat.folded, flat.development, files["png"], title=f"{panel_id}: isometric development")
     s = flat.development.summary()
     report = {**flat.to_json(), "panel_id": panel_id, "outputs": {k: str(v) for k, v in files.items()}}
