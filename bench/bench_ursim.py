@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.common import report
-from fabkit.commands._dryrun import free_loopback_address
+from sim.ursim.launch import free_loopback_address
 
 ROOT = Path(__file__).resolve().parents[1]
 SECONDS = 10.0

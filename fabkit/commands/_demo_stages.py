@@ -134,7 +134,7 @@ def check(run: DemoRun, done: dict) -> Outcome:
 
 def send(run: DemoRun, done: dict) -> Outcome:
     """The dry run: the controller stand-in on a free loopback address, the send, shut down."""
-    from fabkit.commands._dryrun import standin
+    from sim.ursim.launch import standin
     from fabkit.errors import InputError
     from fabkit.io.jsonfile import to_jsonable
     from robot.sender import SendSettings

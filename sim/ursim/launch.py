@@ -1,4 +1,5 @@
-"""Dry run for `fabkit demo`: the controller stand-in on a free loopback address, for one send.
+"""The controller stand-in as a child process on a free loopback address (the dry run of `fabkit
+demo`, the README's walk-through, the stand-in benchmark).
 
 The stand-in runs in its own process (ur_rtde's constructors hold the GIL, so it can't share a
 process with the client). Every wait is bounded; the stand-in is always terminated.
