@@ -76,6 +76,7 @@ def main() -> dict:
         relax = ["-m", "fabkit", "relax", str(panel), "-o", str(Path(tmp) / "out.obj")]
         row("fabkit relax (no-op)", [py, *relax], NOOP_RELAX_TARGET_S)
         heavy = _heavy_imports(relax)
-    print(f"a no-op relax imports {', '.join(heavy) or 'none of ' + ', '.join(HEAVY)}")
-    return report("cli", rows, {"baseline_wall_s": base_wall, "baseline_cpu_s": base_cpu,
+    data = report("cli", rows, {"baseline_wall_s": base_wall, "baseline_cpu_s": base_cpu,
                                 "noop_relax_heavy_imports": heavy})
+    print(f"a no-op relax imports {', '.join(heavy) or 'none of ' + ', '.join(HEAVY)}")
+    return data
