@@ -18,8 +18,9 @@ MOUNTAIN, VALLEY = "#d62728", "#1f77b4"
 
 
 def plot_generated(mesh: PolyMesh, path: str | os.PathLike, *, title: str = "", dpi: int = 110) -> None:
-    """Write a PNG: faces coloured by strip (tagged, else inferred: `fabkit.structure`), mountain creases red, valley blue,
-    the middle row outlined; a second panel shows `uv` when present. Lengths in millimetres."""
+    """Write a PNG: faces coloured by strip (tagged, else inferred: `fabkit.structure`), mountain
+    creases red, valley blue, the middle row outlined; a second panel shows `uv` when present.
+    Lengths in millimetres."""
     import matplotlib
 
     matplotlib.use("Agg")
