@@ -92,7 +92,7 @@ def _run_stage(stage: Stage, step, run, done: dict, reports: Path) -> None:
     write_json(reports / f"{stage.name}.json", outcome.report)
 
 
-def _sheet_thickness(args) -> float | None:
+def sheet_thickness(args) -> float | None:
     """The check's sheet thickness [m] from --material / --thickness (None: the check's default)."""
     from fabkit.errors import InputError
     from fabkit.materials import get_material, parse_length
@@ -117,7 +117,7 @@ def run(args) -> int:
     if not 2 <= frames <= MAX_REFOLD_FRAMES:
         raise InputError(f"must be in 2..{MAX_REFOLD_FRAMES} (flat and target included), got {frames}",
                          source="--frames")
-    thickness = _sheet_thickness(args)
+    thickness = sheet_thickness(args)
     load_cell(args.cell)  # a broken cell is refused before the first stage
     renders = () if args.no_render else ("check.png", "check.mp4")
     if renders:
