@@ -9,6 +9,7 @@ Each stage is one typed function returning a frozen result (`fabkit.results`) wi
     folds = fk.refold(flat, relaxed)
     program = fk.plan(folds, "cells/ur5e_bench.toml")
     report = fk.check(program)                    # CHECK.json, as `fabkit check` writes it
+    fk.render(report, "check.png")                # a picture of the check (optional)
     fk.send(program, report, host="192.168.0.10")  # through the safety gate
 
 A stage refuses (`InputError`) a result that is not `ok`: the CLI would have stopped there too
