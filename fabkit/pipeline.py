@@ -112,12 +112,14 @@ def unfold(panel: Panel | Relaxed, *, method: str = "isometric", norm: float = 2
 
 def refold(flat: Flat, target: Panel | Relaxed | None = None, *, frames: int = 20, drive="middle-row",
            steps=None, fixed_face: int | None = None, diagonal: str = "short", length_tol: float | None = None,
-           target_tol: float = DEFAULT_TARGET_RTOL, solver: str = "direct", intersections: bool = True) -> Folds:
+           target_tol: float = DEFAULT_TARGET_RTOL, solver: str = "direct", intersections: bool = True,
+           title: str | None = None) -> Folds:
     """Fold states from `flat` to `target` (default: the panel `flat` was unfolded from), as
     `fabkit refold`: `frames` states per step, `drive` "middle-row" | "all" | hinge ids, `steps`
     e.g. "crease0,crease1". Not ok when target is not a fold of flat (edge lengths differ by more
     than `length_tol`), a state did not converge, the last state misses the target by more than
-    `target_tol` of the panel size, or faces pass through each other."""
+    `target_tol` of the panel size, or faces pass through each other. `title`: the FOLD file's
+    `file_title` (default "refold of the flat pattern of NAME")."""
     from fabkit.refold import DEFAULT_LENGTH_RTOL, NotAFoldError, RefoldSolver
     from fabkit.refold.export import to_fold_model
     from fabkit.refold.sequence import build_schedule, parse_steps
@@ -144,7 +146,7 @@ def refold(flat: Flat, target: Panel | Relaxed | None = None, *, frames: int = 2
     fractions, step_of_state = build_schedule(rs.panel, driven, steps, frames)
     seq = rs.solve(fractions, driven, step_of_state, check_intersections=intersections, notes=notes)
     problems = seq.problems(target_tol)
-    model = to_fold_model(seq, title=f"refold of the flat pattern of {flat.name}")
+    model = to_fold_model(seq, title=f"refold of the flat pattern of {flat.name}" if title is None else title)
     return Folds(sequence=seq, model=model, name=flat.name, target_tol=target_tol, ok=not problems,
                  problems=tuple(problems), details={"length_tol": length_tol, "frames_per_step": frames,
                                                     "structure": rs.structure.summary(flat.mesh),

@@ -87,7 +87,8 @@ def unfold(run: DemoRun, done: dict) -> Outcome:
 def refold(run: DemoRun, done: dict) -> Outcome:
     from fabkit.refold.export import plot_fold_angles
 
-    folds = fk.refold(done["unfold"], done["relax"], frames=run.frames)
+    folds = fk.refold(done["unfold"], done["relax"], frames=run.frames,
+                      title="refold of flat.obj to relaxed.obj")  # the title `fabkit refold` gives these files
     report = folds.to_json()
     if folds.model is not None:
         folds.save(run.path("fold.fold"))
