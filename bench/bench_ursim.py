@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 from bench.common import report
-from fabkit.commands._dryrun import free_loopback_address
+from sim.ursim.launch import free_loopback_address
 from sim.ursim.probe import measure
 
 ROOT = Path(__file__).resolve().parents[1]

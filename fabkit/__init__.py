@@ -11,10 +11,22 @@ The stages live in their own namespace because `fabkit.relax`, `fabkit.unfold`, 
 `fabkit.generate` are the geometry subpackages they call. Units: metres and radians inside.
 `import fabkit` loads no numpy, robot or sim code; the stages import what they need when called.
 """
-from fabkit import pipeline
 from fabkit.errors import FabkitError, InputError, ToleranceError
-from fabkit.results import Checked, Flat, Folds, Panel, Program, Relaxed, Sent
 
 __version__ = "0.1.0"
 __all__ = ["pipeline", "Panel", "Relaxed", "Flat", "Folds", "Program", "Checked", "Sent",
            "FabkitError", "InputError", "ToleranceError", "__version__"]
+
+_RESULTS = ("Panel", "Relaxed", "Flat", "Folds", "Program", "Checked", "Sent")
+
+
+def __getattr__(name: str):
+    """`fabkit.pipeline` and the result types, imported on first use (PEP 562): every `fabkit SUB`
+    imports this package first, and `fabkit SUB --help` should not pay for the dataclasses."""
+    import importlib
+
+    if name == "pipeline":
+        return importlib.import_module("fabkit.pipeline")
+    if name in _RESULTS:
+        return getattr(importlib.import_module("fabkit.results"), name)
+    raise AttributeError(f"module 'fabkit' has no attribute {name!r}")

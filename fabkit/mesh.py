@@ -7,18 +7,20 @@ A *corner* is a position in `face_indices`; corner c is also the half-edge from 
 next corner's vertex in the same face, so per-corner arrays double as per-half-edge arrays.
 
 Faces are counter-clockwise seen from the front side. `PolyMesh` never reorders or merges the
-user's vertices or faces (vertex ids are the model). Topology lives in `MeshTopology`, shared by
-every mesh with the same faces, so `mesh.with_vertices(V)` is cheap inside solvers.
+user's vertices or faces (vertex ids are the model). Topology lives in `MeshTopology`
+(`fabkit.mesh_topology`, re-exported here), shared by every mesh with the same faces, so
+`mesh.with_vertices(V)` is cheap inside solvers.
 """
 from __future__ import annotations
 
 import warnings
 from functools import cached_property
-from typing import Iterable, Mapping, Sequence
+from typing import Mapping
 
 import numpy as np
 
 from fabkit.errors import MeshError
+from fabkit.mesh_topology import MeshTopology, faces_to_csr, read_only
 
 __all__ = ["MeshTopology", "PolyMesh", "validate_mesh", "faces_to_csr"]
 
@@ -32,274 +34,6 @@ def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     np.subtract(a2 * b0, a0 * b2, out=out[..., 1])
     np.subtract(a0 * b1, a1 * b0, out=out[..., 2])
     return out
-
-
-def _readonly(a: np.ndarray) -> np.ndarray:
-    a = np.asarray(a)
-    a.setflags(write=False)
-    return a
-
-
-def faces_to_csr(faces) -> tuple[np.ndarray, np.ndarray]:
-    """Faces as a list of sequences, an `(m, k)` array, or an `(indices, offsets)` pair -> CSR arrays."""
-    if isinstance(faces, tuple) and len(faces) == 2 and all(isinstance(x, np.ndarray) for x in faces):
-        indices, offsets = (np.asarray(x, dtype=np.int64) for x in faces)
-        return indices, offsets
-    if isinstance(faces, np.ndarray) and faces.ndim == 2:
-        m, k = faces.shape
-        return faces.astype(np.int64).ravel(), np.arange(0, m * k + 1, k, dtype=np.int64) if m else np.zeros(1, np.int64)
-    faces = list(faces)
-    sizes = np.fromiter((len(f) for f in faces), dtype=np.int64, count=len(faces))
-    offsets = np.zeros(len(faces) + 1, dtype=np.int64)
-    np.cumsum(sizes, out=offsets[1:])
-    if len(faces) == 0:
-        return np.zeros(0, np.int64), offsets
-    indices = np.fromiter((int(i) for f in faces for i in f), dtype=np.int64, count=int(offsets[-1]))
-    return indices, offsets
-
-
-class MeshTopology:
-    """Connectivity of a polygon mesh; built from faces and the vertex count only.
-
-    Raises `MeshError` (naming the element) for index errors, faces with fewer than 3 or repeated
-    vertices, non-manifold edges and inconsistent orientation: every cached array below assumes a
-    consistently oriented manifold-with-boundary.
-    """
-
-    def __init__(self, face_indices: np.ndarray, face_offsets: np.ndarray, n_vertices: int):
-        self.n_vertices = int(n_vertices)
-        self.face_indices = _readonly(np.ascontiguousarray(face_indices, dtype=np.int64))
-        self.face_offsets = _readonly(np.ascontiguousarray(face_offsets, dtype=np.int64))
-        self._check_structure()
-        self._build_edges()
-
-    # ---- construction -------------------------------------------------------------------
-    def _check_structure(self) -> None:
-        idx, off = self.face_indices, self.face_offsets
-        if off.ndim != 1 or len(off) < 1 or off[0] != 0 or off[-1] != len(idx) or np.any(np.diff(off) < 0):
-            raise MeshError("face offsets are not a valid CSR array")
-        sizes = np.diff(off)
-        small = np.flatnonzero(sizes < 3)
-        if len(small):
-            f = int(small[0])
-            raise MeshError(f"face {f} has {int(sizes[f])} vertices (a face needs at least 3)")
-        bad = np.flatnonzero((idx < 0) | (idx >= self.n_vertices))
-        if len(bad):
-            c = int(bad[0])
-            f = int(np.searchsorted(off, c, side="right") - 1)
-            raise MeshError(f"face {f} refers to vertex {int(idx[c])}, but vertices are numbered 0..{self.n_vertices - 1}")
-        # repeated vertex inside one face: sort (face, vertex) pairs and look for equal neighbours
-        cf = self.corner_face
-        order = np.lexsort((idx, cf))
-        same = (cf[order][1:] == cf[order][:-1]) & (idx[order][1:] == idx[order][:-1])
-        if np.any(same):
-            k = int(np.flatnonzero(same)[0])
-            raise MeshError(f"face {int(cf[order][k])} repeats vertex {int(idx[order][k])}")
-
-    def _build_edges(self) -> None:
-        n = self.n_vertices
-        u = self.face_indices
-        v = self.face_indices[self.corner_next]
-        lo, hi = np.minimum(u, v), np.maximum(u, v)
-        keys = lo * n + hi
-        uniq, inverse = np.unique(keys, return_inverse=True)
-        if len(uniq):
-            q, r = np.divmod(uniq, n)
-            self.edges = _readonly(np.stack([q, r], axis=1).astype(np.int64, copy=False))
-        else:
-            self.edges = _readonly(np.zeros((0, 2), np.int64))
-        self.halfedge_edge = _readonly(inverse.astype(np.int64, copy=False))
-        E = len(uniq)
-        counts = np.bincount(inverse, minlength=E)
-        over = np.flatnonzero(counts > 2)
-        if len(over):
-            e = int(over[0])
-            fs = sorted(int(f) for f in self.corner_face[inverse == e])
-            raise MeshError(f"edge ({self.edges[e, 0]}, {self.edges[e, 1]}) is shared by {len(fs)} faces {fs} "
-                            "(non-manifold: an edge may border at most 2 faces)")
-        forward = u < v  # half-edge runs lo -> hi: its face is on the edge's left (FOLD edges_faces[0])
-        slot = np.where(forward, 0, 1)
-        key2 = inverse * 2 + slot
-        c2 = np.bincount(key2, minlength=2 * E)
-        dup = np.flatnonzero(c2 > 1)
-        if len(dup):
-            e = int(dup[0] // 2)
-            fs = sorted(int(f) for f in self.corner_face[key2 == dup[0]])
-            a, b = (self.edges[e] if dup[0] % 2 == 0 else self.edges[e][::-1])
-            raise MeshError(f"faces {fs[0]} and {fs[1]} both run along edge {a}->{b} in the same direction "
-                            "(inconsistent orientation: flip one of them)")
-        ef = np.full((E, 2), -1, dtype=np.int64)
-        ef[inverse, slot] = self.corner_face
-        self.edge_faces = _readonly(ef)
-        eh = np.full((E, 2), -1, dtype=np.int64)
-        eh[inverse, slot] = np.arange(len(u))
-        self.edge_halfedges = _readonly(eh)
-
-    # ---- corners / half-edges -----------------------------------------------------------
-    @property
-    def n_faces(self) -> int:
-        return len(self.face_offsets) - 1
-
-    @property
-    def n_edges(self) -> int:
-        return len(self.edges)
-
-    @cached_property
-    def face_sizes(self) -> np.ndarray:
-        return _readonly(np.diff(self.face_offsets))
-
-    @cached_property
-    def corner_face(self) -> np.ndarray:
-        """Face of each corner."""
-        return _readonly(np.repeat(np.arange(self.n_faces, dtype=np.int64), np.diff(self.face_offsets)))
-
-    @cached_property
-    def corner_next(self) -> np.ndarray:
-        """Next corner (counter-clockwise) in the same face."""
-        c = np.arange(len(self.face_indices), dtype=np.int64) + 1
-        last = self.face_offsets[1:] - 1
-        c[last] = self.face_offsets[:-1]
-        return _readonly(c)
-
-    @cached_property
-    def corner_prev(self) -> np.ndarray:
-        """Previous corner in the same face."""
-        c = np.arange(len(self.face_indices), dtype=np.int64) - 1
-        c[self.face_offsets[:-1]] = self.face_offsets[1:] - 1
-        return _readonly(c)
-
-    @cached_property
-    def halfedge_twin(self) -> np.ndarray:
-        """Opposite half-edge (corner) across the edge, -1 on the boundary."""
-        eh = self.edge_halfedges
-        e = self.halfedge_edge
-        c = np.arange(len(self.face_indices))
-        return _readonly(np.where(eh[e, 0] == c, eh[e, 1], eh[e, 0]))
-
-    # ---- faces ----------------------------------------------------------------------------
-    def face(self, f: int) -> np.ndarray:
-        return self.face_indices[self.face_offsets[f]:self.face_offsets[f + 1]]
-
-    def faces_list(self) -> list[list[int]]:
-        idx = self.face_indices.tolist()
-        off = self.face_offsets.tolist()
-        return [idx[off[f]:off[f + 1]] for f in range(self.n_faces)]
-
-    @cached_property
-    def is_uniform(self) -> bool:
-        return self.n_faces > 0 and bool(np.all(self.face_sizes == self.face_sizes[0]))
-
-    @cached_property
-    def face_array(self) -> np.ndarray:
-        """`(m, k)` array when every face has k vertices (raises otherwise)."""
-        if not self.is_uniform:
-            raise ValueError("faces have different sizes; use face_indices/face_offsets")
-        return _readonly(self.face_indices.reshape(self.n_faces, -1))
-
-    # ---- adjacency ------------------------------------------------------------------------
-    @cached_property
-    def vertex_faces(self) -> tuple[np.ndarray, np.ndarray]:
-        """CSR `(faces, offsets)`: faces around each vertex (in face order, not cyclic)."""
-        order = np.argsort(self.face_indices, kind="stable")
-        counts = np.bincount(self.face_indices, minlength=self.n_vertices)
-        off = np.zeros(self.n_vertices + 1, dtype=np.int64)
-        np.cumsum(counts, out=off[1:])
-        return _readonly(self.corner_face[order]), _readonly(off)
-
-    @cached_property
-    def vertex_corners(self) -> tuple[np.ndarray, np.ndarray]:
-        """CSR `(corners, offsets)`: corners at each vertex."""
-        order = np.argsort(self.face_indices, kind="stable").astype(np.int64)
-        counts = np.bincount(self.face_indices, minlength=self.n_vertices)
-        off = np.zeros(self.n_vertices + 1, dtype=np.int64)
-        np.cumsum(counts, out=off[1:])
-        return _readonly(order), _readonly(off)
-
-    @cached_property
-    def vertex_valence(self) -> np.ndarray:
-        """Number of edges at each vertex."""
-        return _readonly(np.bincount(self.edges.ravel(), minlength=self.n_vertices))
-
-    @cached_property
-    def boundary_edge_mask(self) -> np.ndarray:
-        return _readonly(np.any(self.edge_faces < 0, axis=1))
-
-    def edge_ids(self, pairs) -> np.ndarray:
-        """Edge id (index into `edges`) of each vertex pair (k, 2), in either order; -1 where no edge joins them.
-
-        `edges` is sorted by (lo, hi), so this is one binary search per pair.
-        """
-        P = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-        out = np.full(len(P), -1, dtype=np.int64)
-        n = max(self.n_vertices, 1)
-        lo, hi = P.min(axis=1), P.max(axis=1)
-        valid = (lo >= 0) & (hi < self.n_vertices)
-        if not len(self.edges) or not valid.any():
-            return out
-        keys = self.edges[:, 0] * n + self.edges[:, 1]
-        want = lo[valid] * n + hi[valid]
-        pos = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
-        out[valid] = np.where(keys[pos] == want, pos, -1)
-        return out
-
-    @cached_property
-    def interior_edges(self) -> np.ndarray:
-        return _readonly(np.flatnonzero(~self.boundary_edge_mask))
-
-    @cached_property
-    def boundary_vertex_mask(self) -> np.ndarray:
-        m = np.zeros(self.n_vertices, dtype=bool)
-        m[self.edges[self.boundary_edge_mask].ravel()] = True
-        return _readonly(m)
-
-    @cached_property
-    def used_vertex_mask(self) -> np.ndarray:
-        m = np.zeros(self.n_vertices, dtype=bool)
-        m[self.face_indices] = True
-        return _readonly(m)
-
-    @cached_property
-    def interior_vertex_mask(self) -> np.ndarray:
-        """Used vertices not on the boundary: the ones whose angle defect is meaningful."""
-        return _readonly(self.used_vertex_mask & ~self.boundary_vertex_mask)
-
-    @cached_property
-    def boundary_loops(self) -> tuple[np.ndarray, ...]:
-        """Boundary loops as vertex arrays, oriented like the faces (the mesh on the left).
-
-        Loops start at their smallest vertex id, so the result is deterministic.
-        """
-        bh = np.flatnonzero(self.halfedge_twin < 0)
-        if len(bh) == 0:
-            return ()
-        start = self.face_indices[bh]
-        end = self.face_indices[self.corner_next[bh]]
-        nxt: dict[int, list[int]] = {}
-        for s, e in zip(start.tolist(), end.tolist()):
-            nxt.setdefault(s, []).append(e)
-        loops = []
-        unvisited = set(zip(start.tolist(), end.tolist()))
-        for s0 in sorted(nxt):
-            while nxt.get(s0):
-                loop = [s0]
-                cur = s0
-                for _ in range(len(bh) + 1):
-                    nx = nxt[cur].pop()
-                    unvisited.discard((cur, nx))
-                    if nx == s0:
-                        break
-                    loop.append(nx)
-                    cur = nx
-                    if not nxt.get(cur):
-                        break
-                k = int(np.argmin(loop))
-                loops.append(_readonly(np.array(loop[k:] + loop[:k], dtype=np.int64)))
-        return tuple(loops)
-
-    @cached_property
-    def face_adjacency(self) -> np.ndarray:
-        """`(k, 2)` pairs of faces sharing an interior edge (ordered like `interior_edges`)."""
-        return _readonly(self.edge_faces[self.interior_edges])
 
 
 class PolyMesh:
@@ -322,7 +56,7 @@ class PolyMesh:
                 V = V.reshape(0, 3)
             else:
                 raise MeshError(f"vertices must be an (n, 3) array, got shape {V.shape}")
-        self.vertices = _readonly(V)
+        self.vertices = read_only(V)
         if topology is None:
             if faces is None:
                 raise MeshError("a mesh needs faces")
@@ -331,8 +65,8 @@ class PolyMesh:
         elif topology.n_vertices != len(V):
             raise MeshError(f"topology has {topology.n_vertices} vertices, coordinates have {len(V)}")
         self.topology = topology
-        self.face_data = {k: _readonly(np.asarray(v)) for k, v in (face_data or {}).items()}
-        self.vertex_data = {k: _readonly(np.asarray(v)) for k, v in (vertex_data or {}).items()}
+        self.face_data = {k: read_only(np.asarray(v)) for k, v in (face_data or {}).items()}
+        self.vertex_data = {k: read_only(np.asarray(v)) for k, v in (vertex_data or {}).items()}
         for k, v in self.face_data.items():
             if len(v) != topology.n_faces:
                 raise MeshError(f"face data '{k}' has {len(v)} entries for {topology.n_faces} faces")
@@ -427,12 +161,12 @@ class PolyMesh:
         here = V[t.face_indices]
         u = V[t.face_indices[t.corner_next]] - here
         w = V[t.face_indices[t.corner_prev]] - here
-        return _readonly(cross3(u, w))
+        return read_only(cross3(u, w))
 
     @cached_property
     def face_normal_sums(self) -> np.ndarray:
         """Sum of corner cross products per face (the paper's best-fit plane normal, unnormalised)."""
-        return _readonly(np.add.reduceat(self.corner_cross, self.face_offsets[:-1], axis=0)
+        return read_only(np.add.reduceat(self.corner_cross, self.face_offsets[:-1], axis=0)
                          if self.n_faces else np.zeros((0, 3)))
 
     @cached_property
@@ -441,14 +175,14 @@ class PolyMesh:
         n = self.face_normal_sums
         length = np.linalg.norm(n, axis=1, keepdims=True)
         with np.errstate(invalid="ignore", divide="ignore"):
-            return _readonly(np.where(length > 0, n / length, 0.0))
+            return read_only(np.where(length > 0, n / length, 0.0))
 
     @cached_property
     def face_centroids(self) -> np.ndarray:
         """Mean of each face's vertices (the paper's plane origin)."""
         s = np.add.reduceat(self.vertices[self.face_indices], self.face_offsets[:-1], axis=0) \
             if self.n_faces else np.zeros((0, 3))
-        return _readonly(s / self.face_sizes[:, None])
+        return read_only(s / self.face_sizes[:, None])
 
     @cached_property
     def face_areas(self) -> np.ndarray:
@@ -457,17 +191,17 @@ class PolyMesh:
         t = self.topology
         a = cross3(V[t.face_indices], V[t.face_indices[t.corner_next]])
         s = np.add.reduceat(a, self.face_offsets[:-1], axis=0) if self.n_faces else np.zeros((0, 3))
-        return _readonly(0.5 * np.linalg.norm(s, axis=1))
+        return read_only(0.5 * np.linalg.norm(s, axis=1))
 
     @cached_property
     def edge_lengths(self) -> np.ndarray:
         e = self.edges
-        return _readonly(np.linalg.norm(self.vertices[e[:, 1]] - self.vertices[e[:, 0]], axis=1))
+        return read_only(np.linalg.norm(self.vertices[e[:, 1]] - self.vertices[e[:, 0]], axis=1))
 
     @cached_property
     def bounding_box(self) -> np.ndarray:
         used = self.vertices[self.topology.used_vertex_mask]
-        return _readonly(np.array([used.min(axis=0), used.max(axis=0)]))
+        return read_only(np.array([used.min(axis=0), used.max(axis=0)]))
 
     @property
     def size(self) -> float:

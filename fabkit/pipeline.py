@@ -9,6 +9,7 @@ Each stage is one typed function returning a frozen result (`fabkit.results`) wi
     folds = fk.refold(flat, relaxed)
     program = fk.plan(folds, "cells/ur5e_bench.toml")
     report = fk.check(program)                    # CHECK.json, as `fabkit check` writes it
+    fk.render(report, "check.png")                # a picture of the check (optional)
     fk.send(program, report, host="192.168.0.10")  # through the safety gate
 
 A stage refuses (`InputError`) a result that is not `ok`: the CLI would have stopped there too
@@ -36,7 +37,7 @@ from fabkit.errors import InputError
 from fabkit.results import Checked, Flat, Folds, Panel, Program, Relaxed, Sent
 from fabkit.verdicts import DEFAULT_MAX_ERROR, DEFAULT_MAX_MOVE, DEFAULT_TARGET_RTOL, MAX_REFOLD_FRAMES
 
-__all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "send", "fold_source",
+__all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "render", "send", "fold_source",
            "Panel", "Relaxed", "Flat", "Folds", "Program", "Checked", "Sent"]
 
 #: file names in the working folder (those of `fabkit demo`)
@@ -111,12 +112,14 @@ def unfold(panel: Panel | Relaxed, *, method: str = "isometric", norm: float = 2
 
 def refold(flat: Flat, target: Panel | Relaxed | None = None, *, frames: int = 20, drive="middle-row",
            steps=None, fixed_face: int | None = None, diagonal: str = "short", length_tol: float | None = None,
-           target_tol: float = DEFAULT_TARGET_RTOL, solver: str = "direct", intersections: bool = True) -> Folds:
+           target_tol: float = DEFAULT_TARGET_RTOL, solver: str = "direct", intersections: bool = True,
+           title: str | None = None) -> Folds:
     """Fold states from `flat` to `target` (default: the panel `flat` was unfolded from), as
     `fabkit refold`: `frames` states per step, `drive` "middle-row" | "all" | hinge ids, `steps`
     e.g. "crease0,crease1". Not ok when target is not a fold of flat (edge lengths differ by more
     than `length_tol`), a state did not converge, the last state misses the target by more than
-    `target_tol` of the panel size, or faces pass through each other."""
+    `target_tol` of the panel size, or faces pass through each other. `title`: the FOLD file's
+    `file_title` (default "refold of the flat pattern of NAME")."""
     from fabkit.refold import DEFAULT_LENGTH_RTOL, NotAFoldError, RefoldSolver
     from fabkit.refold.export import to_fold_model
     from fabkit.refold.sequence import build_schedule, parse_steps
@@ -143,7 +146,7 @@ def refold(flat: Flat, target: Panel | Relaxed | None = None, *, frames: int = 2
     fractions, step_of_state = build_schedule(rs.panel, driven, steps, frames)
     seq = rs.solve(fractions, driven, step_of_state, check_intersections=intersections, notes=notes)
     problems = seq.problems(target_tol)
-    model = to_fold_model(seq, title=f"refold of the flat pattern of {flat.name}")
+    model = to_fold_model(seq, title=f"refold of the flat pattern of {flat.name}" if title is None else title)
     return Folds(sequence=seq, model=model, name=flat.name, target_tol=target_tol, ok=not problems,
                  problems=tuple(problems), details={"length_tol": length_tol, "frames_per_step": frames,
                                                     "structure": rs.structure.summary(flat.mesh),
@@ -267,13 +270,41 @@ def check(program: Program, *, use_panel: bool = True, thickness=None, material=
     sheet = None
     if material is not None:
         sheet, thickness = sheet_of(material, thickness, crease, ligament=ligament, bend_radius=bend_radius), None
+    if thickness is not None and not 0 < thickness < 0.05:
+        raise InputError(f"must be in (0, 0.05) m, got {thickness}", source="thickness")
     result = run_toolpath_check(str(program.path_file), program.cell, use_panel=use_panel, thickness=thickness,
                                 settings=CheckSettings(), sheet=sheet)
     report = result.report
     check_file = program.workdir / CHECK_NAME
     write_json(check_file, report.to_json())
     problems = tuple(f"waypoint {p.waypoint}: {p.kind}: {p.detail}" for p in report.problems)
-    return Checked(report=report, program=program, check_file=check_file, ok=bool(report.ok), problems=problems)
+    return Checked(report=report, program=program, check_file=check_file, ok=bool(report.ok), problems=problems,
+                   run=result)
+
+
+def render(checked: Checked, path: str | os.PathLike, *, waypoint: int | None = None,
+           size: tuple[int, int] = (640, 480), frames: int = 240) -> dict:
+    """A picture of a check (`fabkit check --render`): `path` ending in .png draws `waypoint`
+    (default: the first problem, else the middle of the fold) with an offending pair in red, .mp4
+    plays the whole program (at most `frames` frames). Needs offscreen OpenGL (EGL or OSMesa),
+    chosen before mujoco is first imported. -> what was drawn (path, waypoint or frames)."""
+    from sim.render import select_gl_backend
+
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".png", ".mp4"):
+        raise InputError("must end in .png or .mp4", source=str(path))
+    w, h = size
+    if not (16 <= w <= 1280 and 16 <= h <= 960):
+        raise InputError(f"{w}x{h} is outside 16x16 .. 1280x960", source="size")
+    if select_gl_backend() is None:
+        raise InputError("no offscreen OpenGL backend (install libegl1 libegl-mesa0 libgl1-mesa-dri, or libosmesa6; "
+                         "or set MUJOCO_GL=egl before anything imports mujoco)", source=str(path))
+    from sim.render_check import render_movie, render_waypoint
+
+    cell = checked.program.cell
+    if suffix == ".png":
+        return render_waypoint(checked.run, cell, path, size, waypoint=waypoint)
+    return render_movie(checked.run, cell, path, size, max_frames=frames)
 
 
 def send(program: Program, report: Checked, *, host: str, power_on: bool = False, unlock: bool = False,

@@ -23,7 +23,7 @@ if TYPE_CHECKING:  # annotations only: importing a result type loads no numpy, r
     from robot.planner import PlanResult
     from robot.sender import SendResult
     from robot.toolpath import Toolpath
-    from sim.check import CheckReport
+    from sim.check import CheckReport, ToolpathCheck
 
 
 def _jsonable(data: dict) -> dict:
@@ -202,13 +202,15 @@ class Program:
 @dataclass(frozen=True, eq=False)
 class Checked:
     """`fk.check()`: `report` (`sim.check.CheckReport`), written as `check_file`; `to_json()`
-    is CHECK.json (`fabkit.check/2`), the very report `fabkit check` writes for the same PATH.json."""
+    is CHECK.json (`fabkit.check/2`), the very report `fabkit check` writes for the same PATH.json.
+    `run` (`sim.check.ToolpathCheck`) holds the configurations checked, which `fk.render` draws."""
 
     report: CheckReport
     program: Program
     check_file: Path
     ok: bool
     problems: tuple[str, ...]
+    run: ToolpathCheck | None = None
 
     def to_json(self) -> dict:
         return self.report.to_json()

@@ -29,16 +29,15 @@ from scipy.spatial.transform import Rotation
 
 from fabkit.errors import InputError
 from robot.kinematics import MODELS, URModel, get_model
+from robot.rtde_limits import MAX_BLEND, MAX_JOINT_ACCEL, MAX_TOOL_ACCEL, MAX_TOOL_SPEED
+from robot.ur_arm import HOME_Q
 
 __all__ = ["Cell", "RobotMount", "Tool", "Shape", "Limits", "Clamp", "load_cell", "parse_cell", "pose_to_matrix",
            "matrix_to_pose", "file_sha256", "SHAPE_KINDS"]
 
 SHAPE_KINDS = ("box", "cylinder", "capsule", "sphere")
-#: ur_rtde argument bounds (reference ur-rtde.md): a cell may not ask for more than these.
-MAX_TCP_SPEED = 3.0        # m/s
-MAX_TCP_ACCEL = 150.0      # m/s^2
-MAX_JOINT_ACCEL = 40.0     # rad/s^2
-MAX_BLEND = 2.0            # m
+#: ur_rtde argument bounds (`robot.rtde_limits`): a cell may not ask for more than these.
+MAX_TCP_SPEED, MAX_TCP_ACCEL = MAX_TOOL_SPEED, MAX_TOOL_ACCEL
 MAX_CLEARANCE = 0.5        # m: more would make every cell "in collision"
 MAX_TOOL_OUTPUT = {"tool": 1, "standard": 7}  # tool DO 0-1, standard (controller box) DO 0-7
 #: Slack on catalogue joint speeds so that 3.14159 passes for 180 deg/s (rad/s).
@@ -279,7 +278,7 @@ def _mount(rr: _Reader) -> RobotMount:
     model = rr.string("model", choices=tuple(MODELS))
     urm = get_model(model)
     base_pose = rr.pose("base_pose")
-    home = rr.vector("home", 6, required=False, default=[0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0],
+    home = rr.vector("home", 6, required=False, default=list(HOME_Q),
                      unit="rad")
     for i, q in enumerate(home):
         if not urm.q_min[i] <= q <= urm.q_max[i]:

@@ -10,14 +10,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from robot.rtde_limits import MAX_BLEND, MAX_JOINT_ACCEL, MAX_JOINT_SPEED, MAX_TOOL_ACCEL, MAX_TOOL_SPEED
+
 __all__ = ["SendError", "MAX_JOINT_SPEED", "MAX_JOINT_ACCEL", "MAX_TOOL_SPEED", "MAX_TOOL_ACCEL", "MAX_BLEND",
            "validate_waypoints", "printed", "chunk_entries", "pose_distance", "point_segment_distance",
            "point_segment_distance_nd"]
 
-# ur_rtde's client-side argument ranges (reference ur-rtde.md §2.6)
-MAX_JOINT_SPEED, MAX_JOINT_ACCEL = 3.14, 40.0
-MAX_TOOL_SPEED, MAX_TOOL_ACCEL = 3.0, 150.0
-MAX_BLEND = 2.0
 
 
 class SendError(Exception):

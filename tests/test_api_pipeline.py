@@ -52,9 +52,10 @@ def _plain_mm_obj(tmp_path: Path) -> Path:
     return plain
 
 
-def _assert_check_equals_cli(report, program, tmp_path: Path) -> dict:
+def _assert_check_equals_cli(report, program, tmp_path: Path, render: Path | None = None) -> dict:
     cli_out = tmp_path / "cli_check.json"
-    assert _cli("check", program.path_file, "--cell", CELL, "-o", cli_out, "-q") == 0
+    extra = [] if render is None else ["--render", render]
+    assert _cli("check", program.path_file, "--cell", CELL, "-o", cli_out, "-q", *extra) == 0
     cli = json.loads(cli_out.read_text())
     assert json.loads(report.check_file.read_text()) == cli
     assert json.loads(json.dumps(to_jsonable(report.to_json()))) == cli
@@ -66,7 +67,18 @@ def test_six_lines_on_the_trifold_give_the_check_report_of_fabkit_check(tmp_path
     relaxed, flat, folds, program, report = _six_lines(panel, tmp_path)
     for result in (panel, relaxed, flat, folds, program, report):
         assert result.ok and result.problems == (), result.problems
-    cli = _assert_check_equals_cli(report, program, tmp_path)
+    from sim.render import select_gl_backend
+
+    render = tmp_path / "cli.png" if select_gl_backend() is not None else None
+    cli = _assert_check_equals_cli(report, program, tmp_path, render)
+    if render is not None:  # fk.render draws what `fabkit check --render` draws: the same waypoint, the same pixels
+        import imageio.v3 as iio
+
+        drawn = fk.render(report, tmp_path / "api.png")
+        assert drawn["path"] == str(tmp_path / "api.png") and 0 < drawn["waypoint"] < len(program.toolpath) - 1
+        assert (iio.imread(tmp_path / "api.png") == iio.imread(render)).all()
+        with pytest.raises(fabkit.InputError, match=r"\.png or \.mp4"):
+            fk.render(report, tmp_path / "api.gif")
     assert cli["ok"] and cli["waypoints"] == len(program.toolpath) and cli["configs_checked"] > len(program.toolpath)
     assert cli["fold"]["path"] == str(program.fold_file)
     assert program.fold_file == tmp_path / "fold.fold" and program.path_file == tmp_path / "path.json"

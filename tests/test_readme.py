@@ -11,7 +11,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from fabkit.commands._dryrun import free_loopback_address
+from sim.ursim.launch import free_loopback_address
 
 ROOT = Path(__file__).resolve().parents[1]
 

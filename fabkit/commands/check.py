@@ -128,7 +128,7 @@ def run(args) -> int:
 
     if not args.quiet:
         _summary(args, report, elapsed, fold_path)
-    rendered = [_render(args, render, size, cell, panel, prog, dense, report) for render in renders]
+    rendered = [_render(args, render, size, result, cell) for render in renders]
     rendered = rendered[0] if len(rendered) == 1 else (rendered or None)
     write_report(args, {"command": "check", "toolpath": str(args.toolpath), "cell": str(args.cell),
                         "fold": None if fold_path is None else str(fold_path), "output": str(out),
@@ -182,50 +182,15 @@ def _summary(args, report, elapsed: float, fold_path) -> None:
         say(args, f"  … {len(report.problems) - 20} more in {args.output}")
 
 
-def _render(args, path: Path, size, cell, panel, prog, dense, report) -> dict:
-    import numpy as np
+def _render(args, path: Path, size, run, cell) -> dict:
+    from sim.render_check import render_movie, render_waypoint
 
-    from sim.model import build_cell_model
-    from sim.render import movie_indices, render_frames, write_mp4, write_png
-
-    m, _ = build_cell_model(cell, panel)
-    w, h = size
     if path.suffix.lower() == ".png":
-        k = args.waypoint
-        highlight = ()
-        if k is None:  # the first problem, else the middle of the fold (the panel half folded)
-            folding = [i for i, op in enumerate(prog.ops) if op in ("fold", "release")]
-            k = (report.problems[0].waypoint if report.problems else
-                 folding[len(folding) // 2] if folding else 0)
-        if not 0 <= k < len(prog):
-            raise InputError(f"waypoint {k} is outside 0..{len(prog) - 1}", source="--waypoint")
-        hits = np.flatnonzero(dense.at_waypoint & (dense.waypoint == k))
-        j = int(hits[0]) if len(hits) else None
-        for p in report.problems:
-            if p.waypoint == k:
-                if p.pair:
-                    highlight = p.pair
-                if args.waypoint is None and p.config is not None:
-                    j = int(p.config)  # the first offending configuration, which may lie inside the move
-                break
-        if j is None:
-            raise InputError(f"waypoint {k} has no joint solution to draw", source="--waypoint")
-        frame = next(iter(render_frames(m, cell, dense.q[j:j + 1], panel=panel, states=dense.state[j:j + 1],
-                                        width=w, height=h, highlight=highlight)))
-        write_png(path, frame)
-        where = "" if dense.at_waypoint[j] else " (where the problem starts, on the move to it)"
-        say(args, f"rendered waypoint {k}{where} to {path}")
-        return {"path": str(path), "waypoint": k, "config": j, "highlight": list(highlight)}
-    if not 2 <= args.frames <= 10000:
-        raise InputError(f"must be in 2..10000, got {args.frames}", source="--frames")
-    idx, speedup = movie_indices(dense.dt, max_frames=args.frames)
-    frames = render_frames(m, cell, dense.q[idx], panel=panel, states=dense.state[idx], width=w, height=h)
-    with progress(args, "rendering", total=len(idx)) as advance:
-        def counted():
-            for frame in frames:
-                yield frame
-                advance()
-
-        n = write_mp4(path, counted())
-    say(args, f"rendered {n} frames to {path} ({speedup:.1f}x real time)")
-    return {"path": str(path), "frames": n, "speedup": speedup}
+        drawn = render_waypoint(run, cell, path, size, waypoint=args.waypoint)
+        where = " (where the problem starts, on the move to it)" if drawn.pop("inside_move") else ""
+        say(args, f"rendered waypoint {drawn['waypoint']}{where} to {path}")
+        return drawn
+    with progress(args, "rendering", total=None) as advance:
+        drawn = render_movie(run, cell, path, size, max_frames=args.frames, advance=advance)
+    say(args, f"rendered {drawn['frames']} frames to {path} ({drawn['speedup']:.1f}x real time)")
+    return drawn

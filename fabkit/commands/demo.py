@@ -1,15 +1,12 @@
 """`fabkit demo`: the whole pipeline on the built-in tri-fold panel, one stage after another.
 
-Each stage runs through its own subcommand (the same code path a user's shell command takes)
-with a JSON report; the demo reads the reports back for the summary table and the HTML page.
-A stage whose input an earlier failed stage should have made is listed as skipped.
+Each stage is one call of the Python API (`fabkit.pipeline`, in `fabkit.commands._demo_stages`)
+plus the files its subcommand writes; the summary table and the HTML page are read from the typed
+results. A stage whose input an earlier failed stage should have made is listed as skipped.
 """
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
-import json
 import os
 import shutil
 import sys
@@ -17,17 +14,23 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fabkit.commands._common import say, write_json
+from fabkit.commands._common import write_json
 
 HELP = """Run the whole pipeline on the built-in tri-fold panel (paper Fig. 3) into DIR:
 generate -> relax -> unfold (DXF/SVG) -> refold (FOLD animation) -> toolpath (UR5e bench cell)
 -> MuJoCo check (PNG/MP4) -> dry run on the controller stand-in -> report.html.
 
-Prints a summary table (measure, tolerance, pass/fail, time per stage) and exits 1 if any stage
-misses its tolerance.
+Every stage runs through the Python API (`import fabkit.pipeline as fk`, docs/api.md). Prints a
+summary table (measure, tolerance, pass/fail, time per stage) and exits 1 if any stage misses its
+tolerance.
+
+--material and --thickness give the sheet the check models the panel pieces with (their
+thickness); the demo plans the design fold angles (springback compensation and fold loads are
+`fabkit toolpath --material`'s).
 
 example:
   fabkit demo --out demo-out
+  fabkit demo --out demo-out --material 5052-H32 --thickness 1mm
 """
 
 REPO = Path(__file__).resolve().parents[2]
@@ -41,6 +44,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--small", action="store_true", help="a smaller panel and fewer frames (for tests)")
     p.add_argument("--no-render", action="store_true", help="skip the PNG/MP4 renders of the check")
     p.add_argument("--no-dry-run", action="store_true", help="skip the controller stand-in dry run")
+    p.add_argument("--material", metavar="M", default="none",
+                   help="sheet material: a name from `fabkit materials` or a material .toml file (default none)")
+    p.add_argument("--thickness", metavar="T",
+                   help="sheet thickness with its unit, e.g. 1mm: the check's panel pieces (default 1 mm)")
     p.add_argument("--report", metavar="R.json", help="write the summary as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary table")
 
@@ -56,7 +63,6 @@ def plan_files(args, plan) -> None:
 @dataclass
 class Stage:
     name: str
-    argv: list[str]
     status: str = "pending"  # pass | fail | skipped | error
     exit_code: int | None = None
     seconds: float = 0.0
@@ -66,139 +72,77 @@ class Stage:
     tolerance: str = ""
 
 
-def _run_stage(stage: Stage, report_path: Path) -> None:
-    """Run one subcommand in-process, capturing its stderr line(s) for the summary."""
-    from fabkit.cli import main as cli_main
+def _run_stage(stage: Stage, step, run, done: dict, reports: Path) -> None:
+    """One stage through the API: its verdicts set the status (refused input: error, exit code 2)."""
+    from fabkit.errors import InputError
 
-    err = io.StringIO()
-    out = io.StringIO()
     t0 = time.perf_counter()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
-        try:
-            code = cli_main(stage.argv + ["--report", str(report_path), "--quiet"])
-        except SystemExit as exc:  # argparse usage errors
-            code = int(exc.code or 0)
-    stage.seconds = time.perf_counter() - t0
-    stage.exit_code = code
-    stage.message = err.getvalue().strip().splitlines()[-1] if err.getvalue().strip() else ""
-    if report_path.exists():
-        with contextlib.suppress(ValueError, OSError):
-            stage.report = json.loads(report_path.read_text())
-    stage.status = {0: "pass", 1: "fail"}.get(code, "error")
-
-
-def _first(d: dict, *keys, default=None):
-    """First present key among dotted paths in a report."""
-    for k in keys:
-        cur = d
-        ok = True
-        for part in k.split("."):
-            if isinstance(cur, dict) and part in cur:
-                cur = cur[part]
-            else:
-                ok = False
-                break
-        if ok and cur is not None:
-            return cur
-    return default
-
-
-def _fmt(x) -> str:
-    if isinstance(x, float):
-        return f"{x:.3g}"
-    return str(x)
-
-
-def _describe(stage: Stage) -> None:
-    """Fill the measure/tolerance columns from a stage's report (best effort, keys per stage)."""
-    r = stage.report
-    if not r:
+    try:
+        outcome = step(run, done)
+    except InputError as exc:
+        stage.status, stage.exit_code, stage.message = "error", 2, f"fabkit {stage.name}: {exc}"
         return
-    if stage.name == "relax":
-        d = _first(r, "final.max_abs_angle_defect_rad", "max_abs_angle_defect_rad", "result.max_defect")
-        p = _first(r, "final.max_planarity", "max_planarity", "result.max_planarity")
-        stage.measure = f"max|defect| {_fmt(d)} rad, max planarity {_fmt(p)}"
-        stage.tolerance = f"{_fmt(_first(r, 'options.tol_defect', 'tol_defect', default='-'))} / " \
-                          f"{_fmt(_first(r, 'options.tol_planarity', 'tol_planarity', default='-'))}"
-    elif stage.name == "unfold":
-        stage.measure = (f"mean {_fmt(_first(r, 'development.mean_relative_deviation', default='?'))}, "
-                         f"max {_fmt(_first(r, 'development.max_relative_deviation', default='?'))} rel. length dev., "
-                         f"{_first(r, 'development.flipped_faces', default='?')} flipped")
-        stage.tolerance = f"max <= {_fmt(_first(r, 'max_error', default='-'))}"
-    elif stage.name == "refold":
-        stage.measure = (f"loop closure {_fmt(_first(r, 'summary.max_loop_residual_rad', default='?'))} rad, "
-                         f"edge err {_fmt(_first(r, 'summary.max_edge_length_error_rel', default='?'))}, "
-                         f"target {_fmt(_first(r, 'summary.target_distance_rel', default='?'))} of size")
-        stage.tolerance = f"target <= {_fmt(_first(r, 'target_tol', default='-'))}"
-    elif stage.name == "toolpath":
-        stage.measure = (f"{_first(r, 'waypoints', 'n_waypoints', default='?')} waypoints, "
-                         f"max fold step {_fmt(_first(r, 'max_fold_joint_step_deg', default='?'))} deg, "
-                         f"cycle {_fmt(_first(r, 'cycle_time_s', default='?'))} s")
-        stage.tolerance = "step <= 5 deg"
-    elif stage.name == "check":
-        clearance = _first(r, "min_clearance_m")
-        if clearance is None:  # nothing came within the checker's clearance window
-            clearance_text = f"> {_fmt(_first(r, 'clearance_window_m', default='?'))} m"
-        else:
-            clearance_text = f"{_fmt(clearance)} m"
-        stage.measure = (f"{_first(r, 'problems', default='?')} problems in {_first(r, 'configs_checked', default='?')} "
-                         f"configurations, min clearance {clearance_text}")
-        stage.tolerance = "0 problems"
-    elif stage.name == "send":
-        stage.measure = (f"{_first(r, 'last_completed', default=-1) + 1}/{_first(r, 'total', default='?')} waypoints, "
-                         f"final error {_fmt(_first(r, 'final_error_m', default='?'))} m / "
-                         f"{_fmt(_first(r, 'final_error_rad', default='?'))} rad")
-        stage.tolerance = "all waypoints, error <= 1e-4 rad"
-    elif stage.name == "generate":
-        stage.measure = f"{_first(r, 'vertices', 'summary.vertices', default='?')} vertices, " \
-                        f"{_first(r, 'faces', 'summary.faces', default='?')} faces"
+    finally:
+        stage.seconds = time.perf_counter() - t0
+    result = outcome.result
+    done[stage.name] = result
+    stage.status, stage.exit_code = ("pass", 0) if result.ok else ("fail", 1)
+    stage.message = "; ".join(result.problems)
+    stage.report, stage.measure, stage.tolerance = outcome.report, outcome.measure, outcome.tolerance
+    write_json(reports / f"{stage.name}.json", outcome.report)
+
+
+def sheet_thickness(args) -> float | None:
+    """The check's sheet thickness [m] from --material / --thickness (None: the check's default)."""
+    from fabkit.errors import InputError
+    from fabkit.materials import get_material, parse_length
+    from fabkit.sheet import sheet_spec
+
+    material = get_material(args.material)
+    t = None if args.thickness is None else parse_length(args.thickness, "--thickness")
+    if material.rigid:
+        if t is not None:
+            raise InputError("--thickness needs a --material other than none", source="--material")
+        return None
+    return sheet_spec(material, t).thickness
 
 
 def run(args) -> int:
-    from fabkit.commands.refold import MAX_FRAMES
+    from fabkit.commands._demo_stages import STAGES, DemoRun
     from fabkit.errors import InputError
+    from fabkit.verdicts import MAX_REFOLD_FRAMES
     from robot.cell import load_cell
 
     frames = args.frames if args.frames is not None else 4 if args.small else 12
-    if not 2 <= frames <= MAX_FRAMES:
-        raise InputError(f"must be in 2..{MAX_FRAMES} (flat and target included), got {frames}", source="--frames")
+    if not 2 <= frames <= MAX_REFOLD_FRAMES:
+        raise InputError(f"must be in 2..{MAX_REFOLD_FRAMES} (flat and target included), got {frames}",
+                         source="--frames")
+    thickness = sheet_thickness(args)
     load_cell(args.cell)  # a broken cell is refused before the first stage
+    renders = () if args.no_render else ("check.png", "check.mp4")
+    if renders:
+        from sim.render import select_gl_backend  # before anything imports mujoco
+
+        if select_gl_backend() is None:
+            raise InputError("no offscreen OpenGL backend (install libegl1 libegl-mesa0 libgl1-mesa-dri, or "
+                             "libosmesa6; or pass --no-render)", source="--render")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     reports = out / "reports"
     reports.mkdir(exist_ok=True)
-    gen_params = ["--resolution", "6"] if args.small else []
-    p = lambda name: str(out / name)  # noqa: E731
-    stages = [
-        Stage("generate", ["generate", "trifold", "-o", p("trifold.obj"), *gen_params]),
-        Stage("relax", ["relax", p("trifold.obj"), "-o", p("relaxed.obj")]),
-        Stage("unfold", ["unfold", p("relaxed.obj"), "-o", p("flat.obj"), "--dxf", p("flat.dxf"),
-                         "--svg", p("flat.svg"), "--png", p("unfold_error.png"), "--max-error", "1e-6"]),
-        Stage("refold", ["refold", p("flat.obj"), p("relaxed.obj"), "-o", p("fold.fold"),
-                         "--frames", str(frames), "--png", p("fold_angles.png")]),
-        Stage("toolpath", ["toolpath", p("fold.fold"), "--cell", args.cell, "-o", p("path.json"),
-                           "--script", p("program.script")]),
-        Stage("check", ["check", p("path.json"), "--cell", args.cell, "-o", p("check.json"),
-                        *([] if args.no_render else ["--render", p("check.png"), "--render", p("check.mp4")])]),
-    ]
+    run_ = DemoRun(out=out, cell=args.cell, frames=frames, preset_params={"resolution": 6} if args.small else {},
+                   renders=renders, thickness=thickness)
+    names = [n for n in STAGES if not (n == "send" and args.no_dry_run)]
+    stages = [Stage(n) for n in names]
+    done: dict = {}
     t_all = time.perf_counter()
     failed_upstream = False
     for st in stages:
-        if failed_upstream:
+        if failed_upstream:  # every later stage needs this stage's result
             st.status, st.message = "skipped", "needs an earlier stage"
             continue
-        _run_stage(st, reports / f"{st.name}.json")
-        _describe(st)
-        if st.status in ("fail", "error", "skipped"):
-            failed_upstream = True  # every later stage needs this stage's output
-    if not args.no_dry_run:
-        dry = Stage("send", ["send", p("path.json"), "--check", p("check.json"), "--cell", args.cell])
-        if failed_upstream:
-            dry.status, dry.message = "skipped", "needs an earlier stage"
-        else:
-            _dry_run(dry, reports / "send.json", args.cell)
-            _describe(dry)
-        stages.append(dry)
+        _run_stage(st, STAGES[st.name], run_, done, reports)
+        failed_upstream = st.status != "pass"
     total = time.perf_counter() - t_all
     summary = {
         "format": "fabkit.demo/1",
@@ -217,13 +161,6 @@ def run(args) -> int:
     if not args.quiet:
         _print_table(stages, total, out)
     return 1 if any(s.status in ("fail", "error") for s in stages) else 0
-
-
-def _dry_run(stage: Stage, report_path: Path, cell: str) -> None:
-    """Start the controller stand-in on a free loopback address, send, verify, shut it down."""
-    from fabkit.commands._dryrun import run_dry
-
-    run_dry(stage, report_path, _run_stage, cell)
 
 
 def _print_table(stages: list[Stage], total: float, out: Path) -> None:

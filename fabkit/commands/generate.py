@@ -1,8 +1,6 @@
 """fabkit generate: procedural input meshes (presets) written as OBJ with their tags."""
 from __future__ import annotations
 
-import numpy as np
-
 from fabkit.commands._common import add_common, say, write_report
 from fabkit import presets
 from fabkit.presets import PRESETS
@@ -59,6 +57,8 @@ def plan_files(args, plan) -> None:
 
 
 def run(args) -> int:
+    import numpy as np
+
     from fabkit import measures
     from fabkit.io import save_mesh
 

@@ -18,8 +18,9 @@ MOUNTAIN, VALLEY = "#d62728", "#1f77b4"
 
 
 def plot_generated(mesh: PolyMesh, path: str | os.PathLike, *, title: str = "", dpi: int = 110) -> None:
-    """Write a PNG: faces coloured by strip (grey without strips), mountain creases red, valley blue,
-    the middle row outlined; a second panel shows `uv` when present. Lengths in millimetres."""
+    """Write a PNG: faces coloured by strip (tagged, else inferred: `fabkit.structure`), mountain
+    creases red, valley blue, the middle row outlined; a second panel shows `uv` when present.
+    Lengths in millimetres."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -29,12 +30,8 @@ def plot_generated(mesh: PolyMesh, path: str | os.PathLike, *, title: str = "", 
 
     V = mesh.vertices * 1000.0
     faces = mesh.faces_list()
-    if "strip" in mesh.face_data:
-        st = np.asarray(mesh.face_data["strip"])
-        colours = [STRIP_COLOURS[int(s) % len(STRIP_COLOURS)] for s in st]
-    else:
-        colours = ["0.85"] * mesh.n_faces
-    structure = panel_structure(mesh)
+    structure = panel_structure(mesh)  # the strip tags, else the strips between the inferred creases
+    colours = [STRIP_COLOURS[int(s) % len(STRIP_COLOURS)] for s in structure.strip]
     crease = structure.crease
     crease_colours = np.where(structure.fold_angle[crease] < 0, MOUNTAIN, VALLEY)
     has_uv = "uv" in mesh.vertex_data

@@ -32,7 +32,7 @@ from fabkit.panels.surface import GridSurface
 
 __all__ = ["Panel", "PanelLayout", "layout_panels", "resample_rows", "crease_rows", "CREASE_ANGLE"]
 
-#: A grid row whose faces meet at more than this mean dihedral angle is a crease [rad] (5 degrees).
+#: A grid row whose edges' fold angle jumps by more than this on average is a crease [rad] (5 degrees).
 CREASE_ANGLE = np.radians(5.0)
 
 
@@ -97,20 +97,26 @@ def _grid_quads(n_r: int, n_c: int) -> np.ndarray:
 
 
 def crease_rows(surface: GridSurface, min_angle: float = CREASE_ANGLE) -> np.ndarray:
-    """Interior grid rows along which the surface kinks: the mean angle between the normals of the
-    quads on either side is a local maximum over the rows and exceeds the mean of its two
-    neighbours' by more than `min_angle` (a jump, not a bare threshold: the facets of a coarsely
-    subdivided smooth surface turn by 5-10 deg on several rows in a row and are no crease)."""
-    P = surface.points
-    n = np.cross(P[1:, 1:] - P[:-1, :-1], P[:-1, 1:] - P[1:, :-1])  # quad (i, j) normals from diagonals
-    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
-    if n.shape[1] < 2:
+    """Interior grid rows along which the surface kinks: the mean, over the row's edges, of the
+    fold-angle jump against the parallel edges beside them (`fabkit.structure.creases.crease_jumps`,
+    the crease measure every stage uses) exceeds `min_angle`. A jump, not a bare threshold: the
+    facets of a coarsely subdivided smooth surface turn by 5-10 deg on several rows in a row and
+    are no crease."""
+    from fabkit.structure.creases import crease_jumps
+
+    nu, nv = surface.shape
+    if nu < 2 or nv < 3:
         return np.zeros(0, np.int64)
-    turn = np.arccos(np.clip(np.einsum("ijk,ijk->ij", n[:, :-1], n[:, 1:]), -1.0, 1.0)).mean(axis=0)
-    padded = np.concatenate([[0.0], turn, [0.0]])
-    jump = turn - 0.5 * (padded[:-2] + padded[2:])
-    peak = (jump > min_angle) & (turn >= padded[:-2]) & (turn >= padded[2:])
-    return np.flatnonzero(peak).astype(np.int64) + 1  # row j lies between quad rows j-1 and j
+    jump, _ = crease_jumps(surface.mesh)
+    idx = surface.index
+    rows = []
+    for j in range(1, nv - 1):  # the edges of grid row j run across the surface, from point (i, j) to (i+1, j)
+        edges = surface.mesh.topology.edge_ids(np.stack([idx[:-1, j], idx[1:, j]], axis=1))
+        row_jump = jump[edges[edges >= 0]]
+        row_jump = row_jump[np.isfinite(row_jump)]
+        if len(row_jump) and row_jump.mean() > min_angle:
+            rows.append(j)
+    return np.array(rows, dtype=np.int64)
 
 
 def _arcs_between(creases: np.ndarray, nv: int) -> np.ndarray:

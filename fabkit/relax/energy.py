@@ -33,32 +33,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 
 from fabkit.mesh import MeshTopology
+from fabkit.relax.planes import (FaceGroup, covariance_normal_terms, dot_rows, face_groups, group_planes,
+                                 normal_adjoint, planarity_rows, scatter_rows)
 
 TWO_PI = 2.0 * np.pi
 PLANE_METHODS = ("cross", "covariance")
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product along the last axis (faster than np.cross for small trailing axes)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum("...i,...i->...", a, b)
-
-
-def _scatter3(n: int, idx: np.ndarray, vals: np.ndarray) -> np.ndarray:
-    """Sum 3-vectors `vals` into rows `idx` of an (n, 3) array (bincount per coordinate: fast)."""
-    idx = idx.ravel()
-    vals = vals.reshape(-1, 3)
-    return np.stack([np.bincount(idx, weights=vals[:, k], minlength=n) for k in range(3)], axis=1)
 
 
 @dataclass(frozen=True)
@@ -96,15 +77,6 @@ class Evaluation:
     @property
     def finite(self) -> bool:
         return bool(np.isfinite(self.energy))
-
-
-class _FaceGroup:
-    """Faces with the same number of vertices k >= 4, as an (m, k) vertex array (planarity terms)."""
-
-    def __init__(self, faces: np.ndarray, face_ids: np.ndarray):
-        self.faces = faces
-        self.face_ids = face_ids
-        self.m, self.k = faces.shape
 
 
 class EnergyModel:
@@ -152,17 +124,8 @@ class EnergyModel:
         self._dc_face = t.corner_face[dc]
         self._dc_row = row_of_vertex[fi[dc]]
         self._dc_verts = np.stack([fi[dc], fi[t.corner_next[dc]], fi[t.corner_prev[dc]]], axis=1)  # here, next, prev
-        sizes = t.face_sizes
         pmask = np.ones(t.n_faces, bool) if planarity_mask is None else np.asarray(planarity_mask, dtype=bool)
-        self.groups: list[_FaceGroup] = []
-        for k in np.unique(sizes):
-            if k < 4:
-                continue
-            ids = np.flatnonzero((sizes == k) & pmask)
-            if len(ids) == 0:
-                continue
-            faces = np.stack([fi[t.face_offsets[ids] + j] for j in range(k)], axis=1)
-            self.groups.append(_FaceGroup(faces, ids))
+        self.groups: list[FaceGroup] = face_groups(t, pmask)
         self.n_faces = t.n_faces
         self.edge_pairs = np.zeros((0, 2), np.int64) if edge_pairs is None else \
             np.asarray(edge_pairs, dtype=np.int64).reshape(-1, 2)
@@ -244,43 +207,10 @@ class EnergyModel:
                 and self._geo_X.shape == X.shape and np.array_equal(self._geo_X, X):
             return self._geo
         K, dtheta = self._corner_terms(X, need_grad)
-        planes = [self._group_planes(g, X) for g in self.groups]
+        planes = [group_planes(g, X, self.plane_method) for g in self.groups]
         self._geo_X = np.array(X, dtype=np.float64, copy=True)
         self._geo = (K, dtheta, planes)
         return self._geo
-
-    # ------------------------------------------------------------------------------------------
-    # planarity per face group
-    def _group_planes(self, g: _FaceGroup, X: np.ndarray):
-        P = X[g.faces]                       # (m, k, 3)
-        C = P.mean(axis=1)
-        R = P - C[:, None, :]
-        U = np.roll(P, -1, axis=1) - P       # next - here
-        W = np.roll(P, 1, axis=1) - P        # prev - here
-        Nsum = _cross(U, W).sum(axis=1)
-        Nlen = np.sqrt(_dot(Nsum, Nsum))
-        extra = None
-        n = Nsum / Nlen[:, None]
-        if self.plane_method == "covariance":
-            M = np.einsum("mki,mkj->mij", R, R)
-            lam, vec = np.linalg.eigh(M)
-            nc = vec[:, :, 0]
-            nc = nc * np.where(_dot(nc, n) < 0, -1.0, 1.0)[:, None]
-            extra = (lam, vec)
-            n = nc
-        d = _dot(R, n[:, None, :])           # (m, k)
-        elen = np.sqrt(_dot(U, U))
-        return P, R, U, W, Nsum, Nlen, n, d, elen, extra
-
-    @staticmethod
-    def _n_adjoint(U, W, p):
-        """(∂N/∂x_j)ᵀ p for every face vertex j, N = Σ corner cross products; p (..., 3) per row.
-
-        U, W: (m, k, 3); p: (m, r, 3) -> (m, r, k, 3).
-        """
-        A = _cross(W[:, None, :, :], p[:, :, None, :])   # to "next" of each corner
-        B = _cross(p[:, :, None, :], U[:, None, :, :])   # to "prev" of each corner
-        return -A - B + np.roll(A, 1, axis=2) + np.roll(B, -1, axis=2)
 
     # ------------------------------------------------------------------------------------------
     def evaluate(self, X: np.ndarray, need_grad: bool = True, planarity_weight: float | None = None) -> Evaluation:
@@ -297,7 +227,7 @@ class EnergyModel:
         G = None
         if need_grad:
             # dK_v/dx = -Σ dθ; E_dev gradient = Σ K_v dK_v/dx
-            G = _scatter3(self.n, self._dc_verts, -K[self._dc_row][:, None, None] * dtheta)
+            G = scatter_rows(self.n, self._dc_verts, -K[self._dc_row][:, None, None] * dtheta)
         planarity = np.zeros(self.n_faces)
         for g, planes_g in zip(self.groups, planes):
             P, R, U, W, Nsum, Nlen, n, d, elen, extra = planes_g
@@ -309,9 +239,9 @@ class EnergyModel:
                 gp = d[:, :, None] * n[:, None, :]     # exact for both planes (covariance: dλ/dx_j = 2 d_j n)
                 if self.plane_method == "cross":
                     q = np.einsum("mk,mki->mi", d, R)
-                    p = (q - n * _dot(n, q)[:, None]) / Nlen[:, None]
-                    gp = gp + self._n_adjoint(U, W, p[:, None, :])[:, 0]
-                G += _scatter3(self.n, g.faces, (w_p / L2) * gp)
+                    p = (q - n * dot_rows(n, q)[:, None]) / Nlen[:, None]
+                    gp = gp + normal_adjoint(U, W, p[:, None, :])[:, 0]
+                G += scatter_rows(self.n, g.faces, (w_p / L2) * gp)
         redge = np.zeros(0)
         if self.n_edge:
             D, ln = self._edge_vectors(X)
@@ -320,11 +250,11 @@ class EnergyModel:
             if need_grad:
                 with np.errstate(invalid="ignore", divide="ignore"):
                     ge = (self.w_e * redge / (self.edge_rest * ln))[:, None] * D   # d/dx_u; -ge for x_v
-                G += _scatter3(self.n, self.edge_pairs, np.stack([ge, -ge], axis=1))
+                G += scatter_rows(self.n, self.edge_pairs, np.stack([ge, -ge], axis=1))
         force = np.nan
         if need_grad:
             G[~self.free_mask] = 0.0
-            force = float(np.sqrt(_dot(G, G)).max()) * self.L if self.n else 0.0
+            force = float(np.sqrt(dot_rows(G, G)).max()) * self.L if self.n else 0.0
             if self.w_c > 0:
                 D = X - self.x_ref
                 E += 0.5 * self.w_c / L2 * float(np.sum(D * D))
@@ -338,7 +268,7 @@ class EnergyModel:
 
     def _edge_vectors(self, X: np.ndarray):
         D = X[self.edge_pairs[:, 0]] - X[self.edge_pairs[:, 1]]
-        return D, np.sqrt(_dot(D, D))
+        return D, np.sqrt(dot_rows(D, D))
 
     def energy(self, X: np.ndarray) -> float:
         return self.evaluate(X, need_grad=False).energy
@@ -348,8 +278,8 @@ class EnergyModel:
 
     # ------------------------------------------------------------------------------------------
     # residual vector and its sparse Jacobian (Gauss–Newton)
-    def _planarity_rows(self, g: _FaceGroup) -> int:
-        return 1 if (g.k == 4 and self.plane_method == "cross") else g.k
+    def _planarity_rows(self, g: FaceGroup) -> int:
+        return planarity_rows(g, self.plane_method)
 
     def _build_jacobian_pattern(self) -> None:
         """Row/column pattern of J (fixed for the topology) and the map that sums duplicates into CSR."""
@@ -359,10 +289,10 @@ class EnergyModel:
         rows.append(r_def)
         cols.append(v_def)
         offset = self.n_def
-        self._group_row_offset = []
+        self.group_row_offset = []
         for g in self.groups:
             nr = self._planarity_rows(g)
-            self._group_row_offset.append(offset)
+            self.group_row_offset.append(offset)
             # entry order: (face, row, vertex j, coord)
             r = offset + (np.arange(g.m)[:, None, None, None] * nr + np.arange(nr)[None, :, None, None])
             r = np.broadcast_to(r, (g.m, nr, g.k, 3))
@@ -370,7 +300,7 @@ class EnergyModel:
             rows.append(r.reshape(-1))
             cols.append(c.reshape(-1))
             offset += g.m * nr
-        self._edge_row_offset = offset
+        self.edge_row_offset = offset
         if self.n_edge:
             # entry order: (edge, endpoint u|v, coord)
             r = offset + np.repeat(np.arange(self.n_edge), 6)
@@ -415,8 +345,8 @@ class EnergyModel:
                 parts_r.append(sw * (d @ a))
                 if need_jacobian:
                     rho = np.einsum("k,mki->mi", a, R)
-                    p = (rho - n * _dot(n, rho)[:, None]) / Nlen[:, None]
-                    Jg = a[None, :, None] * n[:, None, :] + self._n_adjoint(U, W, p[:, None, :])[:, 0]
+                    p = (rho - n * dot_rows(n, rho)[:, None]) / Nlen[:, None]
+                    Jg = a[None, :, None] * n[:, None, :] + normal_adjoint(U, W, p[:, None, :])[:, 0]
                     parts_v.append(sw * Jg.reshape(-1))
                 continue
             parts_r.append(sw * d.reshape(-1))
@@ -426,18 +356,9 @@ class EnergyModel:
             base = eye[None, :, :, None] * n[:, None, None, :]          # (m, rows c, verts j, 3)
             if self.plane_method == "cross":
                 p = (R - n[:, None, :] * d[:, :, None]) / Nlen[:, None, None]
-                Jg = base + self._n_adjoint(U, W, p)
+                Jg = base + normal_adjoint(U, W, p)
             else:
-                lam, vec = extra
-                gap1 = np.maximum(lam[:, 1] - lam[:, 0], 1e-300)
-                gap2 = np.maximum(lam[:, 2] - lam[:, 0], 1e-300)
-                e1, e2 = vec[:, :, 1], vec[:, :, 2]
-                Gm = (e1[:, :, None] * e1[:, None, :]) / gap1[:, None, None] + \
-                     (e2[:, :, None] * e2[:, None, :]) / gap2[:, None, None]
-                GR = np.einsum("mij,mcj->mci", Gm, R)                     # G r_c  (m, c, 3)
-                term1 = -d[:, None, :, None] * GR[:, :, None, :]         # -d_j G r_c
-                term2 = -np.einsum("mji,mci->mcj", R, GR)[..., None] * n[:, None, None, :]  # -n (r_j·G r_c)
-                Jg = base + term1 + term2
+                Jg = base + covariance_normal_terms(R, n, d, extra)
             parts_v.append(sw * Jg.reshape(-1))
         if self.n_edge:
             D, ln = self._edge_vectors(X)
@@ -450,6 +371,8 @@ class EnergyModel:
         r = np.concatenate(parts_r)
         if not need_jacobian:
             return r, None
+        import scipy.sparse as sp  # on use: a panel already within tolerance never needs the Jacobian
+
         vals = np.concatenate(parts_v)[self._jkeep]
         data = np.bincount(self._jinv, weights=vals, minlength=self._jnnz)
         J = sp.csr_matrix((data, self._jindices, self._jindptr), shape=(self.n_rows, self.n_cols))
@@ -457,23 +380,6 @@ class EnergyModel:
 
     # ------------------------------------------------------------------------------------------
     # free-coordinate vector <-> positions
-    def row_vertices(self) -> np.ndarray:
-        """For each residual row, the vertices it depends on, (n_rows, width) int64, -1 padded."""
-        t = self.topology
-        fverts, foff = t.vertex_faces
-        star_sets = [np.unique(np.concatenate([t.face(f) for f in fverts[foff[v]:foff[v + 1]]]))
-                     for v in self.defect_vertices]
-        width = max([1] + [len(s) for s in star_sets] + [g.k for g in self.groups])
-        out = np.full((self.n_rows, width), -1, dtype=np.int64)
-        for i, s in enumerate(star_sets):  # defect rows: the vertex star
-            out[i, :len(s)] = s
-        for g, off in zip(self.groups, self._group_row_offset):
-            nr = self._planarity_rows(g)
-            out[off:off + g.m * nr, :g.k] = np.repeat(g.faces, nr, axis=0)
-        if self.n_edge:
-            out[self._edge_row_offset:self._edge_row_offset + self.n_edge, :2] = self.edge_pairs
-        return out
-
     def pack(self, X: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(X[self.free_mask]).reshape(-1)
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from fabkit.relax.energy import EnergyModel
+from fabkit.relax.planes import planarity_rows
 
 
 def colored_fd_gradient(model: EnergyModel, X: np.ndarray, h: float | None = None) -> np.ndarray:
@@ -21,7 +22,7 @@ def colored_fd_gradient(model: EnergyModel, X: np.ndarray, h: float | None = Non
     h = 1e-6 * model.L if h is None else h
     colors = distance2_coloring(model)
     G = np.zeros((model.n, 3))
-    owner_rows = model.row_vertices()
+    owner_rows = row_vertices(model)
     for col in range(colors.max() + 1):
         members = (colors == col) & model.free_mask
         if not members.any():
@@ -64,3 +65,21 @@ def distance2_coloring(model: EnergyModel) -> np.ndarray:
             c += 1
         colors[v] = c
     return colors
+
+
+def row_vertices(model: EnergyModel) -> np.ndarray:
+    """For each residual row of `model`, the vertices it depends on, (n_rows, width) int64, -1 padded."""
+    t = model.topology
+    fverts, foff = t.vertex_faces
+    star_sets = [np.unique(np.concatenate([t.face(f) for f in fverts[foff[v]:foff[v + 1]]]))
+                 for v in model.defect_vertices]
+    width = max([1] + [len(s) for s in star_sets] + [g.k for g in model.groups])
+    out = np.full((model.n_rows, width), -1, dtype=np.int64)
+    for i, s in enumerate(star_sets):  # defect rows: the vertex star
+        out[i, :len(s)] = s
+    for g, off in zip(model.groups, model.group_row_offset):
+        nr = planarity_rows(g, model.plane_method)
+        out[off:off + g.m * nr, :g.k] = np.repeat(g.faces, nr, axis=0)
+    if model.n_edge:
+        out[model.edge_row_offset:model.edge_row_offset + model.n_edge, :2] = model.edge_pairs
+    return out

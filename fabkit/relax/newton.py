@@ -31,8 +31,6 @@ import warnings
 from typing import Callable
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from fabkit.relax.dynamic import PhaseOutcome
 from fabkit.relax.energy import EnergyModel, Evaluation
@@ -51,8 +49,11 @@ class SPDFactor:
     def __init__(self):
         self.order = None       # row/column order of the permuted matrix (None: not yet known)
 
-    def __call__(self, JJt: sp.csr_matrix, mu: float):
+    def __call__(self, JJt, mu: float):
         """A solve function y = (J Jᵀ + μI)⁻¹ b, or None when the factorisation fails."""
+        import scipy.sparse as sp  # on use (a panel already within tolerance needs no factorisation)
+        import scipy.sparse.linalg as spla
+
         A = JJt + sp.identity(JJt.shape[0], format="csr") * mu
         q = self.order
         if q is not None:

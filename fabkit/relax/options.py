@@ -2,12 +2,15 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from typing import Mapping, Sequence
-
-import numpy as np
+import math
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 from fabkit.errors import InputError, ToleranceError
-from fabkit.mesh import PolyMesh
+
+if TYPE_CHECKING:  # numpy and the mesh are imported on use: `fabkit relax --help` reads the defaults here
+    import numpy as np
+
+    from fabkit.mesh import PolyMesh
 
 METHODS = ("dr", "newton", "lbfgs")
 BOUNDARIES = ("free", "fixed", "row-in-plane", "row-out", "row-in")
@@ -81,24 +84,24 @@ class RelaxOptions:
             raise ValueError(f"plane_method must be cross or covariance, got {self.plane_method!r}")
         for name in ("tol_defect", "tol_planarity", "tol_force"):
             v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
+            if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v}")
         for name in ("closeness", "planarity_weight", "stage_defect", "finish_below", "crease_fairness"):
             v = getattr(self, name)
-            if not (np.isfinite(v) and v >= 0):
+            if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a non-negative number, got {v}")
         if not (0 <= self.damping < 1):
             raise ValueError(f"damping must be in [0, 1), got {self.damping}")
-        if not (np.isfinite(self.row_width) and self.row_width > 0):
+        if not (math.isfinite(self.row_width) and self.row_width > 0):
             raise ValueError(f"row_width must be positive, got {self.row_width}")
-        if self.max_seconds is not None and not (np.isfinite(self.max_seconds) and self.max_seconds > 0):
+        if self.max_seconds is not None and not (math.isfinite(self.max_seconds) and self.max_seconds > 0):
             raise ValueError(f"max_seconds must be a positive number of seconds, got {self.max_seconds}")
         if int(self.max_iter) < 0 or int(self.newton_max_iter) < 0:
             raise ValueError("iteration limits must be >= 0")
         object.__setattr__(self, "fixed", tuple(int(i) for i in self.fixed))
-        if not (np.isfinite(self.edge_length_weight) and self.edge_length_weight > 0):
+        if not (math.isfinite(self.edge_length_weight) and self.edge_length_weight > 0):
             raise ValueError(f"edge_length_weight must be a positive number, got {self.edge_length_weight}")
-        if not (np.isfinite(self.tol_edge_length) and self.tol_edge_length > 0):
+        if not (math.isfinite(self.tol_edge_length) and self.tol_edge_length > 0):
             raise ValueError(f"tol_edge_length must be a positive number, got {self.tol_edge_length}")
         object.__setattr__(self, "edge_lengths", normalize_edge_lengths(self.edge_lengths))
 
@@ -193,12 +196,15 @@ def normalize_edge_lengths(spec) -> tuple[tuple[int, float], ...]:
     """
     if spec is None:
         return ()
-    if isinstance(spec, Mapping):
-        ids, lengths = list(spec.keys()), list(spec.values())
-    else:
+    if not isinstance(spec, Mapping):
         spec = tuple(spec)
         if len(spec) == 0:
             return ()
+    import numpy as np
+
+    if isinstance(spec, Mapping):
+        ids, lengths = list(spec.keys()), list(spec.values())
+    else:
         if len(spec) == 2 and np.ndim(spec[0]) == 1 and np.ndim(spec[1]) == 1:
             ids, lengths = spec
         elif all(np.ndim(p) == 1 and len(p) == 2 for p in spec):  # already ((id, length), ...)
@@ -227,6 +233,8 @@ def normalize_edge_lengths(spec) -> tuple[tuple[int, float], ...]:
 
 def fixed_mask_from(mesh: PolyMesh, fixed: Sequence[int] | np.ndarray | None) -> np.ndarray:
     """Boolean (n,) mask of fixed vertices: `fixed` (ids or a mask) OR mesh.vertex_data["fixed"]."""
+    import numpy as np
+
     n = mesh.n_vertices
     mask = np.zeros(n, dtype=bool)
     if "fixed" in mesh.vertex_data:

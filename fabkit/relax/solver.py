@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from functools import cached_property
 
 import numpy as np
-import scipy.sparse as sp
 
 from fabkit import measures
 from fabkit.errors import InputError
@@ -13,7 +13,6 @@ from fabkit.mesh import PolyMesh
 from fabkit.relax.boundary import ROW_KINDS, ExtendedMesh, add_boundary_row
 from fabkit.relax.dynamic import PhaseOutcome, dynamic_relaxation
 from fabkit.relax.energy import EnergyModel, Evaluation
-from fabkit.relax.fairing import crease_chains, fair_creases, third_differences
 from fabkit.relax.lbfgs import lbfgs
 from fabkit.relax.newton import gauss_newton
 from fabkit.relax.options import IterationRecord, RelaxOptions, RelaxResult, fixed_mask_from
@@ -87,11 +86,6 @@ class Relaxer:
                                  f"0..{mesh.n_edges - 1})", source=source)
             edge_pairs = mesh.edges[ids]   # original vertex ids are kept in the extended mesh
         self.edge_ids = None if edge_pairs is None else ids
-        self.fairness_operator = None
-        if options.crease_fairness > 0:
-            D = third_differences(crease_chains(mesh), mesh.n_vertices, mesh.vertices)
-            pad = pmesh.n_vertices - mesh.n_vertices   # boundary-row vertices come after the mesh's own
-            self.fairness_operator = sp.hstack([D, sp.csr_matrix((D.shape[0], pad))], format="csr") if pad else D
         self.problem_mesh = pmesh
         self.x_ref = np.array(pmesh.vertices)
         self.model = EnergyModel(pmesh.topology, defect_mask=defect, free_mask=free,
@@ -223,12 +217,30 @@ class Relaxer:
         return gauss_newton(self.model, X, max_iter=int(o.newton_max_iter), done=self._done, x_ref=self.x_ref,
                             closeness=o.closeness, record=record, deadline=deadline, corrections=4 if near else 1)
 
+    @cached_property
+    def fairness_operator(self):
+        """The crease chains' third differences (sparse, over the problem's coordinates), built the
+        first time fairing may run: a panel already within tolerance never needs the chains (nor
+        scipy.sparse and the panel structure). None without crease fairing."""
+        if self.options.crease_fairness <= 0:
+            return None
+        import scipy.sparse as sp
+
+        from fabkit.relax.fairing import crease_chains, third_differences
+
+        mesh = self.mesh
+        D = third_differences(crease_chains(mesh), mesh.n_vertices, mesh.vertices)
+        pad = self.problem_mesh.n_vertices - mesh.n_vertices   # boundary-row vertices come after the mesh's own
+        return sp.hstack([D, sp.csr_matrix((D.shape[0], pad))], format="csr") if pad else D
+
     def _fairing_possible(self) -> bool:
         D = self.fairness_operator
         return self.options.crease_fairness > 0 and D is not None and D.shape[0] > 0
 
     def _fair(self, out: PhaseOutcome, record, deadline, statuses: list[str]) -> PhaseOutcome | None:
         """Crease fairing from `out`, then the Gauss–Newton finish if needed; None unless it converges."""
+        from fabkit.relax.fairing import fair_creases
+
         fair = fair_creases(self.model, out.X, self.x_ref, self.fairness_operator, self.options.crease_fairness,
                             done=self._done, record=record, deadline=deadline)
         statuses.append(f"crease fairing {fair.status} ({fair.iterations} steps)")

@@ -9,8 +9,6 @@ import sys
 import threading
 import time
 
-import numpy as np
-
 from fabkit.errors import InputError
 
 READY = "ursim: ready"
@@ -110,7 +108,7 @@ def config_from_args(args):
             q0 = tuple(float(v) for v in args.q0.split(","))
         except ValueError:
             q0 = ()
-        if len(q0) != 6 or not np.all(np.isfinite(q0)):
+        if len(q0) != 6 or not all(math.isfinite(v) for v in q0):
             raise InputError("expected 6 comma-separated joint angles in radians", source="--q0")
     from robot import kinematics as K
 

@@ -31,6 +31,7 @@ import numpy as np
 
 from robot import kinematics as K
 from robot.ur_motion import JOINT_ACCEL_MAX as UR_JOINT_ACCEL_MAX
+from robot.ur_arm import HOME_Q
 from sim.ursim.arm import Arm
 from sim.ursim.clients import Clients
 from sim.ursim.motion import matrix_to_pose, pose_to_matrix
@@ -53,8 +54,6 @@ RECORD_MAX = 20000
 JOINT_ACCEL_MAX = UR_JOINT_ACCEL_MAX
 #: Faults that can wait at once (admin `at_progress` / `after`).
 MAX_PENDING_FAULTS = 100
-#: q = [0, -90, 90, -90, -90, 0] deg, UR's home configuration (tool pointing down).
-HOME_Q = (0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0)
 
 
 @dataclass

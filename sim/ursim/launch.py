@@ -1,4 +1,5 @@
-"""Dry run for `fabkit demo`: controller stand-in on a free loopback address, `fabkit send`, shut down.
+"""The controller stand-in as a child process on a free loopback address (the dry run of `fabkit
+demo`, the README's walk-through, the stand-in benchmark).
 
 The stand-in runs in its own process (ur_rtde's constructors hold the GIL, so it can't share a
 process with the client). Every wait is bounded; the stand-in is always terminated.
@@ -72,16 +73,13 @@ def stop_standin(proc: subprocess.Popen, timeout: float = 5.0) -> None:
             proc.wait(timeout=timeout)
 
 
-def run_dry(stage, report_path: Path, run_stage, cell: str | None) -> None:
-    """Fill `stage` (a demo Stage for `send`) by sending its toolpath to a fresh stand-in."""
-    out = report_path.parent.parent
+@contextlib.contextmanager
+def standin(cell: str | None, log: Path):
+    """A controller stand-in on a free loopback address for the block -> its address; None when it
+    did not start (its output is in `log`). Always shut down on leaving."""
     host = free_loopback_address()
-    proc = start_standin(host, cell, out / "ursim.log")
+    proc = start_standin(host, cell, log)
     try:
-        if not wait_for_dashboard(host):
-            stage.status, stage.message = "error", f"controller stand-in did not start on {host} (see ursim.log)"
-            return
-        stage.argv = [a for a in stage.argv] + ["--host", host, "--power-on", "--log", str(out / "send.log")]
-        run_stage(stage, report_path)
+        yield host if wait_for_dashboard(host) else None
     finally:
         stop_standin(proc)
