@@ -17,7 +17,8 @@ import fabkit.pipeline as fk
 @dataclass(frozen=True)
 class DemoRun:
     """What every stage needs: the output folder, the cell file, fold states per step, the preset's
-    parameters, the renders to write and the check's sheet thickness [m] (None: the default)."""
+    parameters, the renders to write, and the sheet: `material` (a `fabkit materials` name or a
+    .toml file; "none" = rigid) and its thickness [m] (None: the material's or the check's default)."""
 
     out: Path
     cell: str
@@ -25,6 +26,7 @@ class DemoRun:
     preset_params: dict
     renders: tuple[str, ...]
     thickness: float | None
+    material: str = "none"
 
     def path(self, name: str) -> Path:
         return self.out / name
@@ -108,7 +110,8 @@ def toolpath(run: DemoRun, done: dict) -> Outcome:
     from fabkit.io.atomic import atomic_write
     from robot.planner import PlanOptions
 
-    program = fk.plan(done["refold"], run.cell, workdir=run.out)
+    program = fk.plan(done["refold"], run.cell, workdir=run.out, material=run.material,
+                      thickness=None if run.material == "none" else run.thickness)
     tolerance = f"step <= {math.degrees(PlanOptions().max_joint_step):g} deg"
     report = program.to_json()
     if not program.ok:
@@ -123,7 +126,8 @@ def toolpath(run: DemoRun, done: dict) -> Outcome:
 
 
 def check(run: DemoRun, done: dict) -> Outcome:
-    checked = fk.check(done["toolpath"], thickness=run.thickness)
+    # a program planned for a sheet carries it (thickness, loads); a rigid one takes the slab's
+    checked = fk.check(done["toolpath"], thickness=run.thickness if run.material == "none" else None)
     rendered = [fk.render(checked, run.path(name)) for name in run.renders]
     report = {**checked.to_json(), "render": rendered or None}
     r = checked.report

@@ -24,9 +24,9 @@ Every stage runs through the Python API (`import fabkit.pipeline as fk`, docs/ap
 summary table (measure, tolerance, pass/fail, time per stage) and exits 1 if any stage misses its
 tolerance.
 
---material and --thickness give the sheet the check models the panel pieces with (their
-thickness); the demo plans the design fold angles (springback compensation and fold loads are
-`fabkit toolpath --material`'s).
+--material and --thickness plan and check the program for that sheet, as `fabkit toolpath
+--material` and `fabkit check` do: springback-compensated fold states, the payload, the fold
+loads (a load over the arm's or the cup's rating fails the check stage), the panel's thickness.
 
 example:
   fabkit demo --out demo-out
@@ -47,7 +47,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--material", metavar="M", default="none",
                    help="sheet material: a name from `fabkit materials` or a material .toml file (default none)")
     p.add_argument("--thickness", metavar="T",
-                   help="sheet thickness with its unit, e.g. 1mm: the check's panel pieces (default 1 mm)")
+                   help="sheet thickness with its unit, e.g. 1mm (needed with --material; without: a 1 mm slab)")
     p.add_argument("--report", metavar="R.json", help="write the summary as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary table")
 
@@ -131,7 +131,7 @@ def run(args) -> int:
     reports = out / "reports"
     reports.mkdir(exist_ok=True)
     run_ = DemoRun(out=out, cell=args.cell, frames=frames, preset_params={"resolution": 6} if args.small else {},
-                   renders=renders, thickness=thickness)
+                   renders=renders, thickness=thickness, material=args.material)
     names = [n for n in STAGES if not (n == "send" and args.no_dry_run)]
     stages = [Stage(n) for n in names]
     done: dict = {}
