@@ -9,6 +9,11 @@
 - `sim.programs`: synthetic sweep programs for tests and benchmarks.
 - `sim.ursim`: the controller stand-in (its own package).
 
-Nothing here imports mujoco at package import time, so `sim.render.select_gl_backend` can still pick
-the OpenGL backend.
+MuJoCo reads `MUJOCO_GL` once, when it is first imported, and its default (GLFW) needs a display
+and costs about 0.3 s to load (pyglfw checks its library in a subprocess). So importing this
+package runs `sim.render.select_gl_backend()` before any sim module imports mujoco: an explicit
+`MUJOCO_GL` is kept; otherwise EGL (or OSMesa) is chosen, which is what rendering needs anyway.
 """
+from sim.render import select_gl_backend as _select_gl_backend
+
+_select_gl_backend()

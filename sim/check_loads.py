@@ -48,6 +48,8 @@ def resolve_sheet(tp, sheet=None):
     """`(spec, recorded)`: the sheet the check uses - the toolpath's record (`recorded` True), else
     the `sheet` given (a `fabkit.sheet.SheetSpec`), else None - or `InputError` when a sheet is
     given that is not the recorded one."""
+    if sheet is None and not (isinstance(tp.extra, dict) and tp.extra.get("sheet") is not None):
+        return None, False  # a rigid program: nothing of the sheet models is loaded
     from robot.sheet_program import sheet_of_toolpath
 
     recorded = sheet_of_toolpath(tp)

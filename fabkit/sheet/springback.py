@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import math
 
-from scipy.optimize import brentq
 
 from fabkit.errors import ToleranceError
 from fabkit.sheet.spec import SheetSpec
@@ -82,6 +81,8 @@ def released_angle(spec: SheetSpec, held: float, kappa_g: float = 0.0, panel_wid
     a = abs(float(held))
     if spec.rigid or a == 0.0:
         return float(held)
+    from scipy.optimize import brentq  # on use: importing scipy.optimize costs ~0.3 s
+
     sign = 1.0 if held > 0 else -1.0
     K = springback_ratio(spec)
     mp = crease_plastic_moment_per_length(spec)
