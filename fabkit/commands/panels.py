@@ -72,6 +72,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--thickness", default="1mm", help="sheet thickness with its unit (default 1mm)")
     g.add_argument("--frames", type=int, default=8, help="refold states per panel, flat and folded included (default 8)")
     g.add_argument("--overrides", metavar="FILE.json", help='per-panel options, e.g. {"P003_b00_03": {"frames": 12}}')
+    g.add_argument("--each-panel", action="store_true",
+                   help="refold, program and check every panel, also panels that are the same part as another "
+                        "(default: once per part, within 0.1 um; docs/production.md)")
     g.add_argument("--sheet", default="2500x1250", metavar="WxH", help="stock sheet size in mm (default 2500x1250)")
     g.add_argument("--spacing", type=float, default=10.0, help="gap between parts and to the sheet edge, mm (default 10)")
     g.add_argument("--kerf", type=float, default=0.2, help="cutting kerf in mm, added to the spacing (default 0.2)")

@@ -29,14 +29,15 @@ import numpy as np
 
 from fabkit.errors import InputError
 from fabkit.io.jsonfile import to_jsonable
+from fabkit.panels.repeats import SAME_PART_TOL, same_part_classes
 
-__all__ = ["Stock", "stock", "ProductionOptions", "PanelStatus", "ProductionRun",
-           "refold_and_program", "run_production", "crease_loss", "geometry_status", "MANIFEST", "STAGES"]
+__all__ = ["Stock", "stock", "ProductionOptions", "PanelStatus", "ProductionRun", "refold_inputs",
+           "refold_and_program", "program_task", "same_part_result", "relabel_fold", "run_production", "crease_loss", "geometry_status", "MANIFEST", "STAGES"]
 
 MANIFEST = "manifest.json"
 STAGES = ("relax", "unfold", "refold", "program", "check")
 #: Code salt of the later stages' hash: bump it when their outputs change meaning.
-PROGRAM_SALT = "fabkit.production.program/1"
+PROGRAM_SALT = "fabkit.production.program/2"
 
 
 @dataclass(frozen=True)
@@ -71,6 +72,8 @@ class ProductionOptions:
                                          # (2 um on a 0.2 m panel; only the middle row is driven, §3.6)
     length_tol: float = 1e-6             # flat vs relaxed edge lengths a refold accepts (relative)
     overrides: dict = field(default_factory=dict)   # panel name -> {"frames": n}
+    same_part_tol: float | None = SAME_PART_TOL    # panels that are the same part to this [m] share one
+                                                    # refold, program and check (None: compute each panel)
 
 
 @dataclass(frozen=True)
@@ -93,6 +96,8 @@ class ProductionRun:
     geometry: object          # the PanelsRun
     seconds: dict
     recomputed: dict          # stage -> panel ids computed in this run (the rest were reused)
+    same_as: dict = field(default_factory=dict)   # panel name -> the panel of the same part whose
+                                                  # refold, program and check it got in this run
 
     @property
     def ok(self) -> bool:
@@ -141,19 +146,11 @@ def _panel_frame(uv: np.ndarray, faces: np.ndarray, fd: dict, clamped: int, side
     return (uv - c0) @ R.T
 
 
-def refold_and_program(task: dict) -> dict:
-    """Refold one panel, then program and check it with `task["program"]`. Pure: data in, data out."""
-    from fabkit.fold import validate_fold_model
-    from fabkit.io.fold import fold_text
+def refold_inputs(task: dict):
+    """(flat, target, clamped face, laid back up) of a panel task: the flat pattern in the panel
+    frame and the relaxed panel the refold folds it into (faces reversed when the back is up)."""
     from fabkit.mesh import PolyMesh
-    from fabkit.refold import NotAFoldError, RefoldSolver
-    from fabkit.refold.export import to_fold_model
-    from fabkit.refold.sequence import build_schedule
 
-    t0 = time.perf_counter()
-    name = task["name"]
-    out = {"id": task["id"], "name": name, "stage": None, "reason": "", "fold": None, "toolpath": None,
-           "check": None, "cycle_time_s": None, "grip_face": None, "refold": None, "face_up_on_fixture": None}
     faces = np.asarray(task["faces"])
     fd = {k: np.asarray(v) for k, v in task["face_data"].items()}
     uv = np.asarray(task["uv"], dtype=np.float64)
@@ -167,6 +164,22 @@ def refold_and_program(task: dict) -> dict:
         uv = uv * np.array([1.0, -1.0])
         target = PolyMesh(np.asarray(task["relaxed"]), faces, face_data=fd)
     flat = PolyMesh(np.column_stack([uv, np.zeros(len(uv))]), faces, face_data=fd)
+    return flat, target, clamped, back_up
+
+
+def refold_and_program(task: dict) -> dict:
+    """Refold one panel, then program and check it with `task["program"]`. Pure: data in, data out."""
+    from fabkit.fold import validate_fold_model
+    from fabkit.io.fold import fold_text
+    from fabkit.refold import NotAFoldError, RefoldSolver
+    from fabkit.refold.export import to_fold_model
+    from fabkit.refold.sequence import build_schedule
+
+    t0 = time.perf_counter()
+    name = task["name"]
+    out = {"id": task["id"], "name": name, "stage": None, "reason": "", "fold": None, "toolpath": None,
+           "check": None, "cycle_time_s": None, "grip_face": None, "refold": None, "face_up_on_fixture": None}
+    flat, target, clamped, back_up = refold_inputs(task)
     out["face_up_on_fixture"] = "back" if back_up else "front"
     try:
         solver = RefoldSolver(flat, target, fixed_face=clamped, length_rtol=task["length_tol"],
@@ -198,7 +211,7 @@ def refold_and_program(task: dict) -> dict:
     return out
 
 
-def _program_task(panel, result, options: ProductionOptions, cell_toml: str, cell_name: str, mat: Stock,
+def program_task(panel, result, options: ProductionOptions, cell_toml: str, cell_name: str, mat: Stock,
                   program: Callable) -> dict:
     frames = int(options.overrides.get(panel.name, {}).get("frames", options.frames))
     fd = {k: np.asarray(v) for k, v in panel.mesh.face_data.items() if k in ("strip", "column", "middle", "row")}
@@ -206,6 +219,60 @@ def _program_task(panel, result, options: ProductionOptions, cell_toml: str, cel
             "uv": np.asarray(result.uv), "relaxed": np.asarray(result.relaxed), "frames": frames,
             "target_tol": options.target_tol, "length_tol": options.length_tol, "cell_toml": cell_toml,
             "cell_name": cell_name, "thickness": mat.thickness, "program": program}
+
+
+def _part(task: dict) -> dict:
+    """What `fabkit.panels.repeats.same_part_classes` compares of a panel task: the flat pattern in
+    the panel frame and the relaxed panel (whether the back is laid up follows from the relaxed
+    panel's fold angles, which a rigid motion keeps, so it is not computed here)."""
+    faces = np.asarray(task["faces"])
+    fd = {k: np.asarray(v) for k, v in task["face_data"].items()}
+    uv = np.asarray(task["uv"], dtype=np.float64)
+    clamped = _clamped_face(fd)
+    if clamped is not None:
+        uv = _panel_frame(uv, faces, fd, clamped, task.get("side", (0.0, 1.0)))
+    exact = {"faces": faces, "clamped": -1 if clamped is None else clamped, "side": tuple(task.get("side", (0.0, 1.0))),
+             **{f"tag:{k}": v for k, v in fd.items()},
+             **{k: task[k] for k in ("frames", "target_tol", "length_tol", "cell_toml", "cell_name", "thickness")},
+             "program": f"{task['program'].__module__}.{task['program'].__qualname__}"}
+    return {"exact": exact, "flat": uv, "target": np.asarray(task["relaxed"], dtype=np.float64)}
+
+
+def relabel_fold(text: str, rep: str, name: str, deviation: float, tol: float) -> str:
+    """The refold FOLD text of panel `rep` as panel `name`'s (the same part): title and panel name
+    changed, `fabkit:fold_states_of` and `fabkit:same_part_deviation_m` / `_tol_m` added. The
+    geometry is left byte for byte as it is, so a check of either file sees the same panel."""
+    lines = text.split("\n")
+    title = f' "file_title": {json.dumps(f"fabkit refold of panel {rep}")},'
+    panel = f' "fabkit:panel": {json.dumps(rep)},'
+    if lines.count(title) != 1 or lines.count(panel) != 1:
+        raise ValueError(f"not a production refold FOLD of panel {rep}")
+    lines[lines.index(title)] = f' "file_title": {json.dumps(f"fabkit refold of panel {name}")},'
+    lines[lines.index(panel)] = "\n".join([
+        f' "fabkit:panel": {json.dumps(name)},', f' "fabkit:fold_states_of": {json.dumps(rep)},',
+        f' "fabkit:same_part_deviation_m": {json.dumps(float(deviation))},',
+        f' "fabkit:same_part_tol_m": {json.dumps(float(tol))},'])
+    return "\n".join(lines)
+
+
+def same_part_result(r: dict, task: dict, deviation: float, tol: float, carry: Callable) -> dict:
+    """Panel `task`'s result from the result `r` of a panel of the same part: its fold states,
+    program and check, re-pointed at this panel's FOLD by `carry` (`sim.production.carry_over`)."""
+    name = task["name"]
+    out = {**r, "id": task["id"], "name": name, "same_as": r["name"], "same_part_deviation_m": float(deviation),
+           "seconds": 0.0}
+    if r["stage"] is not None:
+        out["reason"] = f"{r['reason']} (the same part as {r['name']})"
+    if r.get("fold") is None:
+        return out
+    out["fold"] = relabel_fold(r["fold"], r["name"], name, deviation, tol)
+    note = (f"program and check of panel {r['name']}, the same part: this panel's flat pattern (panel frame) and "
+            f"relaxed shape (up to a rigid motion) are within {deviation:.2g} m of it (tol {tol:g} m), and its "
+            f"FOLD has {r['name']}'s fold states")
+    prog = carry({k: r[k] for k in ("stage", "reason", "toolpath", "check", "cycle_time_s", "grip_face")},
+                 out["fold"], f"{name}_refold.fold", note)
+    out.update(toolpath=prog["toolpath"], check=prog["check"])
+    return out
 
 
 def load_manifest(out: Path) -> dict:
@@ -303,7 +370,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
                    panels_options=None, options: ProductionOptions = ProductionOptions(),
                    mat: Stock | None = None, jobs: int = 1, scheduler: str | None = None,
                    progress: Callable | None = None, timeout: float | None = None,
-                   select=None) -> ProductionRun:
+                   select=None, carry: Callable | None = None) -> ProductionRun:
     """Run every stage for every panel of `layout` into folder `out` (see the module docstring).
 
     `program(fold_text, fold_name, cell_toml, cell_name, thickness) -> dict` plans and checks one
@@ -311,6 +378,10 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     finish a stage. Per-panel files go to `out/panels/`; the geometry files (OBJ, crease-pattern
     FOLD, DXF/SVG) are written by the caller (`fabkit.panels.output.write_run`). `select`: panel
     names to take past the unfold (None: all); the others end at stage "refold", "not selected".
+    `carry(program_result, fold_text, fold_name, note) -> program_result` re-points a program and
+    check at the FOLD of a panel of the same part (`sim.production.carry_over`): with it and
+    `options.same_part_tol` set, only one panel per part (`fabkit.panels.repeats`) is refolded,
+    programmed and checked; the others get its results, each recorded with the deviation.
     """
     mat = stock() if mat is None else mat
     from fabkit.panels.cache import ResultCache
@@ -337,7 +408,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     manifest = load_manifest(out)
     entries = manifest["panels"]
     t0 = time.perf_counter()
-    tasks, keys, statuses, recomputed = {}, {}, {}, set()
+    tasks, keys, statuses, recomputed, same_as = {}, {}, {}, set(), {}
     for p in layout.panels:
         bad = geometry_status(geometry, p)
         if bad:
@@ -347,8 +418,9 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
         if select is not None and p.name not in select:
             statuses[p.id] = ("refold", "not selected for refold, program and check in this run", {}, None, None)
             continue
-        task = _program_task(p, geometry.results[p.id], options, cell_toml, cell_name, mat, program)
-        key = hashlib.sha256((PROGRAM_SALT + cache.key(task)).encode()).hexdigest()
+        task = program_task(p, geometry.results[p.id], options, cell_toml, cell_name, mat, program)
+        reuse = options.same_part_tol if carry is not None else None
+        key = hashlib.sha256((PROGRAM_SALT + cache.key({**task, "same_part_tol": reuse})).encode()).hexdigest()
         prev = entries.get(p.name)
         if prev and prev.get("hash") == key and _files_intact(out, prev):
             statuses[p.id] = (prev["stage"], prev["reason"], prev["files"], prev.get("cycle_time_s"),
@@ -359,20 +431,37 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     if progress:
         progress("refold+program+check", finished, n)
     if tasks:
+        tol = options.same_part_tol
+        t1 = time.perf_counter()
+        if carry is not None and tol is not None:
+            classes = same_part_classes({pid: _part(t) for pid, t in tasks.items()}, tol)
+        else:
+            classes = None
+        reps = classes.representatives if classes else sorted(tasks)
+        seconds["same_parts"] = time.perf_counter() - t1
+
+        def finish(pid: int, r: dict) -> None:
+            nonlocal finished
+            files = _store(out, r)
+            entries[r["name"]] = {"hash": keys[pid], "stage": r["stage"], "reason": r["reason"], "files": files,
+                                  "cycle_time_s": r["cycle_time_s"], "grip_face": r["grip_face"],
+                                  "refold": r["refold"], "seconds": r.get("seconds"),
+                                  "face_up_on_fixture": r.get("face_up_on_fixture"),
+                                  "same_as": r.get("same_as"), "same_part_deviation_m": r.get("same_part_deviation_m")}
+            statuses[pid] = (r["stage"], r["reason"], files, r["cycle_time_s"], r["grip_face"])
+            recomputed.add(pid)
+            finished += 1
+
         with panel_executor(jobs, scheduler) as ex:
-            futures = {ex.submit(single_threaded, refold_and_program, t): pid for pid, t in tasks.items()}
+            futures = {ex.submit(single_threaded, refold_and_program, tasks[pid]): pid for pid in reps}
             for f in as_completed(futures, timeout=timeout):
                 r = f.result()
                 pid = futures[f]
-                files = _store(out, r)
-                entries[r["name"]] = {"hash": keys[pid], "stage": r["stage"], "reason": r["reason"], "files": files,
-                                      "cycle_time_s": r["cycle_time_s"], "grip_face": r["grip_face"],
-                                      "refold": r["refold"], "seconds": r.get("seconds"),
-                                      "face_up_on_fixture": r.get("face_up_on_fixture")}
+                finish(pid, r)
+                for m in (classes.members(pid) if classes else ()):
+                    finish(m, same_part_result(r, tasks[m], classes.deviation[m], tol, carry))
+                    same_as[tasks[m]["name"]] = r["name"]
                 _write_manifest(out, manifest)
-                statuses[pid] = (r["stage"], r["reason"], files, r["cycle_time_s"], r["grip_face"])
-                recomputed.add(pid)
-                finished += 1
                 if progress:
                     progress("refold+program+check", finished, n)
     _write_manifest(out, manifest)
@@ -386,5 +475,6 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
                                   recomputed=p.id in recomputed))
     return ProductionRun(panels=tuple(panels), geometry=geometry, seconds=seconds,
                          recomputed={"relax_unfold": sorted(int(i) for i in cache.computed),
-                                     "refold_program_check": sorted(recomputed)})
+                                     "refold_program_check": sorted(recomputed)},
+                         same_as=same_as)
 
