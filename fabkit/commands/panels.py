@@ -159,7 +159,8 @@ def run(args) -> int:
         result = run_panels(layout, options, jobs=args.jobs, scheduler=args.scheduler, progress=advance)
     from fabkit.io.atomic import staging_path
 
-    report = write_run(result, staging_path(args.out), plots=not args.no_plots, cut_files=not args.no_cut_files)
+    report = write_run(result, staging_path(args.out), plots=not args.no_plots, cut_files=not args.no_cut_files,
+                       jobs=args.jobs, scheduler=args.scheduler)
     report["input"] = {"surface": args.surface, "lowpoly": lowpoly, "levels": args.levels if lowpoly else 0}
     write_report(args, report)
     last = result.rounds[-1]

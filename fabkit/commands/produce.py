@@ -94,7 +94,7 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
                                                    same_part_tol=None if args.each_panel else SAME_PART_TOL),
                          mat=mat, jobs=args.jobs, scheduler=args.scheduler, progress=show)
     t1 = time.perf_counter()
-    write_run(run.geometry, out, plots=not args.no_plots, cut_files=True)
+    write_run(run.geometry, out, plots=not args.no_plots, cut_files=True, jobs=args.jobs, scheduler=args.scheduler)
     seconds = dict(run.seconds)
     seconds["geometry_files"] = time.perf_counter() - t1
     t1 = time.perf_counter()
