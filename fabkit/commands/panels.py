@@ -80,8 +80,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--kerf", type=float, default=0.2, help="cutting kerf in mm, added to the spacing (default 0.2)")
     g.add_argument("--grain", choices=("none", "x", "y"), default="none",
                    help="keep each panel's arcs along the sheet's grain direction (default: any rotation)")
-    g.add_argument("--nester", choices=("packingsolver", "shelf"), default="packingsolver",
-                   help="nesting engine (default packingsolver; shelf: bounding-box shelf packing)")
+    g.add_argument("--nester", choices=("rows", "packingsolver", "shelf"), default="rows",
+                   help="nesting engine (default rows: parts at their least height, slid together on shelves; "
+                        "packingsolver: sparrow; shelf: bounding-box shelf packing)")
     g.add_argument("--nest-seconds", type=float, default=30.0, help="time limit of the nesting solver (default 30)")
     add_common(p)
 
