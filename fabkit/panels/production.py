@@ -88,6 +88,7 @@ class PanelStatus:
     grip_face: int | None
     files: dict              # kind -> path relative to the run folder
     recomputed: bool
+    same_as: str | None = None   # the panel of the same part whose refold, program and check it has
 
 
 @dataclass(frozen=True)
@@ -412,11 +413,11 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     for p in layout.panels:
         bad = geometry_status(geometry, p)
         if bad:
-            statuses[p.id] = (bad[0], bad[1], {}, None, None)
+            statuses[p.id] = (bad[0], bad[1], {}, None, None, None)
             entries[p.name] = {"hash": None, "stage": bad[0], "reason": bad[1], "files": {}}
             continue
         if select is not None and p.name not in select:
-            statuses[p.id] = ("refold", "not selected for refold, program and check in this run", {}, None, None)
+            statuses[p.id] = ("refold", "not selected for refold, program and check in this run", {}, None, None, None)
             continue
         task = program_task(p, geometry.results[p.id], options, cell_toml, cell_name, mat, program)
         reuse = options.same_part_tol if carry is not None else None
@@ -424,7 +425,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
         prev = entries.get(p.name)
         if prev and prev.get("hash") == key and _files_intact(out, prev):
             statuses[p.id] = (prev["stage"], prev["reason"], prev["files"], prev.get("cycle_time_s"),
-                              prev.get("grip_face"))
+                              prev.get("grip_face"), prev.get("same_as"))
         else:
             tasks[p.id], keys[p.id] = task, key
     finished = len(statuses)
@@ -448,7 +449,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
                                   "refold": r["refold"], "seconds": r.get("seconds"),
                                   "face_up_on_fixture": r.get("face_up_on_fixture"),
                                   "same_as": r.get("same_as"), "same_part_deviation_m": r.get("same_part_deviation_m")}
-            statuses[pid] = (r["stage"], r["reason"], files, r["cycle_time_s"], r["grip_face"])
+            statuses[pid] = (r["stage"], r["reason"], files, r["cycle_time_s"], r["grip_face"], r.get("same_as"))
             recomputed.add(pid)
             finished += 1
 
@@ -468,11 +469,11 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     seconds["refold_program_check"] = time.perf_counter() - t0
     panels = []
     for p in layout.panels:
-        stage, reason, files, ct, grip = statuses[p.id]
+        stage, reason, files, ct, grip, same = statuses[p.id]
         panels.append(PanelStatus(id=p.id, name=p.name, ok=stage is None, stage=stage, reason=reason,
                                   cycle_time_s=ct, unfold_max=float(geometry.results[p.id].unfold_max),
                                   grip_face=grip, files={k: v["path"] for k, v in files.items()},
-                                  recomputed=p.id in recomputed))
+                                  recomputed=p.id in recomputed, same_as=same))
     return ProductionRun(panels=tuple(panels), geometry=geometry, seconds=seconds,
                          recomputed={"relax_unfold": sorted(int(i) for i in cache.computed),
                                      "refold_program_check": sorted(recomputed)},
