@@ -7,7 +7,11 @@ geometry files, nesting, sheets and book. Target: <= 120 s in all.
 Nesting utilisation = total panel (flat pattern) area / area of the sheets used, every sheet counted
 whole (the strict number; target >= 75 %), and also with the last sheet counted only up to its
 used length (the rest an offcut). Engines in the same run: the bounding-box shelf packing
-(baseline), row nesting (`rows`, the default) and sparrow (`packingsolver`, 20 s per strip solve).
+(baseline), row nesting (`rows`, the default) and sparrow (`packingsolver`, 10 s per strip solve).
+
+On a shared machine the wall time is inflated by the other processes; the CPU seconds of the main
+process and of the workers are printed too, and main CPU + workers' CPU / 2 as the estimate of the
+wall time on two otherwise idle cores (stated as an estimate).
 
 FABKIT_BENCH_PROGRAMS=N refolds, programs and checks only the first N panels (`select`; the rest
 end "not selected"), to measure the other stages on a shared machine; the per-panel cost and the
@@ -16,6 +20,7 @@ extrapolated total are printed so the full run can be judged. Default: every pan
 from __future__ import annotations
 
 import os
+import resource
 import tempfile
 import time
 from pathlib import Path
@@ -66,6 +71,9 @@ def main() -> dict:
         write_book(run, nest, rep, out)
         t_book = time.perf_counter() - t0 - t_nest
         total = time.perf_counter() - t_all
+        own = resource.getrusage(resource.RUSAGE_SELF)
+        kids = resource.getrusage(resource.RUSAGE_CHILDREN)  # the pools' workers, reaped at their shutdown
+        cpu_self, cpu_workers = own.ru_utime + own.ru_stime, kids.ru_utime + kids.ru_stime
         programmed = [p for p in run.panels if p.name in subset]
         computed = len({p.name for p in programmed} - set(run.same_as))
         per_panel = run.seconds["refold_program_check"] / max(1, len(programmed))
@@ -78,11 +86,13 @@ def main() -> dict:
                      "all panels extrapolated s": total + per_panel * (len(layout.panels) - len(programmed)),
                      "geometry files s": t_files, "nesting (rows) s": t_nest, "sheets+book s": t_book,
                      "target s": 120.0, "load average at start": load0, "load average at end": os.getloadavg()[0],
+                     "cpu s (main process)": cpu_self, "cpu s (workers)": cpu_workers,
+                     "2 idle cores estimate s (main cpu + workers cpu / 2)": cpu_self + cpu_workers / 2,
                      "ok": sum(p.ok for p in run.panels), "with files or a named reason": with_files,
                      "failed by stage": {k: v for k, v in rep["totals"]["failed_by_stage"].items()},
                      "robot time min": run.robot_time_s / 60})
         nests = {"rows": nest}
-        for engine, limit in (("shelf", 0), ("packingsolver", 20)):
+        for engine, limit in (("shelf", 0), ("packingsolver", 10)):
             nests[engine] = nest_panels(run, NestOptions(engine=engine, time_limit=limit))
         for engine, n in nests.items():
             nn = n.nesting
