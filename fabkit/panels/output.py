@@ -160,6 +160,7 @@ def write_run(run: PanelsRun, out: str | os.PathLike, *, plots: bool = True, cut
 
     The panels' files are made on `jobs` worker processes (or the dask `scheduler`) and written here;
     the staging folder is moved into place only when all of them are written."""
+    from fabkit.io.atomic import write_error
     from fabkit.panels.executor import map_ordered, panel_executor
 
     out = Path(out)
@@ -175,7 +176,10 @@ def write_run(run: PanelsRun, out: str | os.PathLike, *, plots: bool = True, cut
         with panel_executor(jobs if len(tasks) > 1 else 1, scheduler) as ex:
             for files in map_ordered(ex, panel_file_texts, tasks):
                 for fname, text in files.items():  # the staging folder is the atomic unit (moved at the end)
-                    (pdir / fname).write_text(text, encoding="utf-8")
+                    try:
+                        (pdir / fname).write_text(text, encoding="utf-8")
+                    except OSError as exc:
+                        raise write_error(exc, out / "panels" / fname) from None
         bands = band_layout(run)
         write_json(stage / "band_layout.json", {"format": "fabkit.bands/1", "placements": bands})
         if plots:
