@@ -23,7 +23,6 @@ with the gap between them, a new sheet when the next shelf does not fit.
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 from shapely import affinity

@@ -8,15 +8,15 @@ function that does both (`sim.production.program_panel`), so this module stays g
 
 Each panel ends `ok` or with the stage that stopped it and the reason. Work is resumable by
 content: relax/unfold results are cached by the hash of their inputs (`fabkit.panels.cache`), and
-the manifest (`manifest.json`) records per panel the hash of everything the later stages read
+the manifest (`manifest.json`, `fabkit.panels.manifest`) records per panel the hash of everything the later stages read
 (geometry, cell text, material, options) with the SHA-256 of every file written; a panel whose hash
 and files are unchanged is not recomputed. The manifest is rewritten after every finished panel, so
-a run that is killed keeps every finished panel.
+a run that is killed keeps every finished panel. Panels that are the same part share one refold,
+program and check (`fabkit.panels.repeats`, `same_part_tol`).
 """
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import os
 import time
@@ -28,13 +28,12 @@ from typing import Callable
 import numpy as np
 
 from fabkit.errors import InputError
-from fabkit.io.jsonfile import to_jsonable
-from fabkit.panels.repeats import SAME_PART_TOL, same_part_classes
+from fabkit.panels.manifest import MANIFEST, files_intact, load_manifest, store_panel_files, write_manifest
+from fabkit.panels.repeats import SAME_PART_TOL, relabel_fold, same_part_classes, same_part_result
 
 __all__ = ["Stock", "stock", "ProductionOptions", "PanelStatus", "ProductionRun", "refold_inputs",
            "refold_and_program", "program_task", "same_part_result", "relabel_fold", "run_production", "crease_loss", "geometry_status", "MANIFEST", "STAGES"]
 
-MANIFEST = "manifest.json"
 STAGES = ("relax", "unfold", "refold", "program", "check")
 #: Code salt of the later stages' hash: bump it when their outputs change meaning.
 PROGRAM_SALT = "fabkit.production.program/2"
@@ -107,10 +106,6 @@ class ProductionRun:
     @property
     def robot_time_s(self) -> float:
         return float(sum(p.cycle_time_s or 0.0 for p in self.panels))
-
-
-def _sha(text: str | bytes) -> str:
-    return hashlib.sha256(text.encode() if isinstance(text, str) else text).hexdigest()
 
 
 def _mostly_valley(mesh) -> bool:
@@ -239,90 +234,6 @@ def _part(task: dict) -> dict:
     return {"exact": exact, "flat": uv, "target": np.asarray(task["relaxed"], dtype=np.float64)}
 
 
-def relabel_fold(text: str, rep: str, name: str, deviation: float, tol: float) -> str:
-    """The refold FOLD text of panel `rep` as panel `name`'s (the same part): title and panel name
-    changed, `fabkit:fold_states_of` and `fabkit:same_part_deviation_m` / `_tol_m` added. The
-    geometry is left byte for byte as it is, so a check of either file sees the same panel."""
-    lines = text.split("\n")
-    title = f' "file_title": {json.dumps(f"fabkit refold of panel {rep}")},'
-    panel = f' "fabkit:panel": {json.dumps(rep)},'
-    if lines.count(title) != 1 or lines.count(panel) != 1:
-        raise ValueError(f"not a production refold FOLD of panel {rep}")
-    lines[lines.index(title)] = f' "file_title": {json.dumps(f"fabkit refold of panel {name}")},'
-    lines[lines.index(panel)] = "\n".join([
-        f' "fabkit:panel": {json.dumps(name)},', f' "fabkit:fold_states_of": {json.dumps(rep)},',
-        f' "fabkit:same_part_deviation_m": {json.dumps(float(deviation))},',
-        f' "fabkit:same_part_tol_m": {json.dumps(float(tol))},'])
-    return "\n".join(lines)
-
-
-def same_part_result(r: dict, task: dict, deviation: float, tol: float, carry: Callable) -> dict:
-    """Panel `task`'s result from the result `r` of a panel of the same part: its fold states,
-    program and check, re-pointed at this panel's FOLD by `carry` (`sim.production.carry_over`)."""
-    name = task["name"]
-    out = {**r, "id": task["id"], "name": name, "same_as": r["name"], "same_part_deviation_m": float(deviation),
-           "seconds": 0.0}
-    if r["stage"] is not None:
-        out["reason"] = f"{r['reason']} (the same part as {r['name']})"
-    if r.get("fold") is None:
-        return out
-    out["fold"] = relabel_fold(r["fold"], r["name"], name, deviation, tol)
-    note = (f"program and check of panel {r['name']}, the same part: this panel's flat pattern (panel frame) and "
-            f"relaxed shape (up to a rigid motion) are within {deviation:.2g} m of it (tol {tol:g} m), and its "
-            f"FOLD has {r['name']}'s fold states")
-    prog = carry({k: r[k] for k in ("stage", "reason", "toolpath", "check", "cycle_time_s", "grip_face")},
-                 out["fold"], f"{name}_refold.fold", note)
-    out.update(toolpath=prog["toolpath"], check=prog["check"])
-    return out
-
-
-def load_manifest(out: Path) -> dict:
-    path = out / MANIFEST
-    if not path.is_file():
-        return {"format": "fabkit.production/1", "panels": {}}
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError):
-        return {"format": "fabkit.production/1", "panels": {}}
-    return data if isinstance(data.get("panels"), dict) else {"format": "fabkit.production/1", "panels": {}}
-
-
-def _write_manifest(out: Path, manifest: dict) -> None:
-    tmp = out / f".{MANIFEST}.{os.getpid()}.tmp"
-    tmp.write_text(json.dumps(to_jsonable(manifest), indent=1, allow_nan=False) + "\n")
-    os.replace(tmp, out / MANIFEST)
-
-
-def _write_text(path: Path, text: str) -> str:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-    return _sha(text)
-
-
-def _files_intact(out: Path, entry: dict) -> bool:
-    for rec in entry.get("files", {}).values():
-        p = out / rec["path"]
-        if not p.is_file() or _sha(p.read_bytes()) != rec["sha256"]:
-            return False
-    return True
-
-
-def _store(out: Path, r: dict) -> dict:
-    """Write one panel's refold/program/check files; returns kind -> {"path", "sha256"}."""
-    files = {}
-    pdir = out / "panels"
-    for kind, suffix, value in (("refold", "_refold.fold", r.get("fold")),
-                                ("program", "_path.json", r.get("toolpath")),
-                                ("check", "_check.json", r.get("check"))):
-        if value is None:
-            continue
-        text = value if isinstance(value, str) else json.dumps(to_jsonable(value), indent=1, allow_nan=False) + "\n"
-        rel = f"panels/{r['name']}{suffix}"
-        files[kind] = {"path": rel, "sha256": _write_text(pdir / f"{r['name']}{suffix}", text)}
-    return files
-
-
 #: A crease counts as kept when the relaxed panel's mean fold along it is at least this fraction of
 #: the input surface's.
 CREASE_KEPT = 0.5
@@ -423,7 +334,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
         reuse = options.same_part_tol if carry is not None else None
         key = hashlib.sha256((PROGRAM_SALT + cache.key({**task, "same_part_tol": reuse})).encode()).hexdigest()
         prev = entries.get(p.name)
-        if prev and prev.get("hash") == key and _files_intact(out, prev):
+        if prev and prev.get("hash") == key and files_intact(out, prev):
             statuses[p.id] = (prev["stage"], prev["reason"], prev["files"], prev.get("cycle_time_s"),
                               prev.get("grip_face"), prev.get("same_as"))
         else:
@@ -443,7 +354,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
 
         def finish(pid: int, r: dict) -> None:
             nonlocal finished
-            files = _store(out, r)
+            files = store_panel_files(out, r)
             entries[r["name"]] = {"hash": keys[pid], "stage": r["stage"], "reason": r["reason"], "files": files,
                                   "cycle_time_s": r["cycle_time_s"], "grip_face": r["grip_face"],
                                   "refold": r["refold"], "seconds": r.get("seconds"),
@@ -462,10 +373,10 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
                 for m in (classes.members(pid) if classes else ()):
                     finish(m, same_part_result(r, tasks[m], classes.deviation[m], tol, carry))
                     same_as[tasks[m]["name"]] = r["name"]
-                _write_manifest(out, manifest)
+                write_manifest(out, manifest)
                 if progress:
                     progress("refold+program+check", finished, n)
-    _write_manifest(out, manifest)
+    write_manifest(out, manifest)
     seconds["refold_program_check"] = time.perf_counter() - t0
     panels = []
     for p in layout.panels:

@@ -19,11 +19,13 @@ representative is recorded.
 from __future__ import annotations
 
 import hashlib
+import json
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
-__all__ = ["SAME_PART_TOL", "PartClasses", "same_part_classes", "rigid_residual"]
+__all__ = ["SAME_PART_TOL", "PartClasses", "same_part_classes", "rigid_residual", "relabel_fold", "same_part_result"]
 
 #: Max vertex deviation [m] of two panels (flat pattern in the panel frame; relaxed panel after
 #: the best rigid motion) that are treated as the same part: 0.1 um, 300 times finer than a UR
@@ -96,3 +98,40 @@ def same_part_classes(parts: dict, tol: float = SAME_PART_TOL) -> PartClasses:
         else:
             rep[i], dev[i] = found
     return PartClasses(rep=rep, deviation=dev, tol=tol)
+
+
+def relabel_fold(text: str, rep: str, name: str, deviation: float, tol: float) -> str:
+    """The refold FOLD text of panel `rep` as panel `name`'s (the same part): title and panel name
+    changed, `fabkit:fold_states_of` and `fabkit:same_part_deviation_m` / `_tol_m` added. The
+    geometry is left byte for byte as it is, so a check of either file sees the same panel."""
+    lines = text.split("\n")
+    title = f' "file_title": {json.dumps(f"fabkit refold of panel {rep}")},'
+    panel = f' "fabkit:panel": {json.dumps(rep)},'
+    if lines.count(title) != 1 or lines.count(panel) != 1:
+        raise ValueError(f"not a production refold FOLD of panel {rep}")
+    lines[lines.index(title)] = f' "file_title": {json.dumps(f"fabkit refold of panel {name}")},'
+    lines[lines.index(panel)] = "\n".join([
+        f' "fabkit:panel": {json.dumps(name)},', f' "fabkit:fold_states_of": {json.dumps(rep)},',
+        f' "fabkit:same_part_deviation_m": {json.dumps(float(deviation))},',
+        f' "fabkit:same_part_tol_m": {json.dumps(float(tol))},'])
+    return "\n".join(lines)
+
+
+def same_part_result(r: dict, task: dict, deviation: float, tol: float, carry: Callable) -> dict:
+    """Panel `task`'s result from the result `r` of a panel of the same part: its fold states,
+    program and check, re-pointed at this panel's FOLD by `carry` (`sim.production.carry_over`)."""
+    name = task["name"]
+    out = {**r, "id": task["id"], "name": name, "same_as": r["name"], "same_part_deviation_m": float(deviation),
+           "seconds": 0.0}
+    if r["stage"] is not None:
+        out["reason"] = f"{r['reason']} (the same part as {r['name']})"
+    if r.get("fold") is None:
+        return out
+    out["fold"] = relabel_fold(r["fold"], r["name"], name, deviation, tol)
+    note = (f"program and check of panel {r['name']}, the same part: this panel's flat pattern (panel frame) and "
+            f"relaxed shape (up to a rigid motion) are within {deviation:.2g} m of it (tol {tol:g} m), and its "
+            f"FOLD has {r['name']}'s fold states")
+    prog = carry({k: r[k] for k in ("stage", "reason", "toolpath", "check", "cycle_time_s", "grip_face")},
+                 out["fold"], f"{name}_refold.fold", note)
+    out.update(toolpath=prog["toolpath"], check=prog["check"])
+    return out
