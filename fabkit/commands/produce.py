@@ -118,8 +118,8 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     say(args, f"{tot['panels']} panels: {tot['ok']} ok, {tot['failed']} failed; robot time {tot['robot_time_s'] / 60:.1f} min; "
               f"{tot['sheets']} sheets {sheet[0]:g}x{sheet[1]:g} mm ({tot['utilisation']:.1%} used), "
               f"{tot['material_kg']:.1f} kg {mat.name}; recomputed {len(run.recomputed['relax_unfold'])} relax, "
-              f"{len(run.recomputed['refold_program_check'])} programs ({len(run.same_as)} of them as the same part "
-              f"as another panel) -> {out}/book.html")
+              f"{len(run.recomputed['refold_program_check'])} programs ({len(run.same_as)} of them as the same "
+              f"part as another panel) -> {out}/book.html")
     for p in [p for p in run.panels if not p.ok][:5]:
         say(args, f"  {p.name}: {p.stage}: {p.reason}")
     return 0 if run.ok else 1

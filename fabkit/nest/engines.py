@@ -1,4 +1,5 @@
-"""Nesting engines: row nesting (`fabkit.nest.rows`), sparrow strip packing split into sheets, and the bounding-box shelf baseline."""
+"""Nesting engines: row nesting (`fabkit.nest.rows`), sparrow strip packing split into sheets, and
+the bounding-box shelf baseline."""
 from __future__ import annotations
 
 import math

@@ -138,7 +138,8 @@ def _placement(pid: int, sheet: int, base: np.ndarray, placed: np.ndarray) -> Pl
     t = cp - R @ cb
     if np.abs(base @ R.T + t - placed).max() > 1e-6:
         raise ValueError(f"part {pid}: its outline was not moved rigidly")
-    return Placement(part=pid, sheet=sheet, angle=math.degrees(math.atan2(R[1, 0], R[0, 0])), x=float(t[0]), y=float(t[1]))
+    angle = math.degrees(math.atan2(R[1, 0], R[0, 0]))
+    return Placement(part=pid, sheet=sheet, angle=angle, x=float(t[0]), y=float(t[1]))
 
 
 def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon], options: NestOptions,

@@ -32,7 +32,8 @@ from fabkit.panels.manifest import MANIFEST, files_intact, load_manifest, store_
 from fabkit.panels.repeats import SAME_PART_TOL, relabel_fold, same_part_classes, same_part_result
 
 __all__ = ["Stock", "stock", "ProductionOptions", "PanelStatus", "ProductionRun", "refold_inputs",
-           "refold_and_program", "program_task", "same_part_result", "relabel_fold", "run_production", "crease_loss", "geometry_status", "MANIFEST", "STAGES"]
+           "refold_and_program", "program_task", "same_part_result", "relabel_fold", "run_production",
+           "crease_loss", "geometry_status", "MANIFEST", "STAGES"]
 
 STAGES = ("relax", "unfold", "refold", "program", "check")
 #: Code salt of the later stages' hash: bump it when their outputs change meaning.
