@@ -8,13 +8,15 @@ check reads the toolpath's own waypoints and the same fold states).
 """
 from __future__ import annotations
 
+import copy
+import dataclasses
 import functools
 import hashlib
 import tempfile
 import tomllib
 from pathlib import Path
 
-__all__ = ["program_panel"]
+__all__ = ["program_panel", "carry_over"]
 
 
 @functools.lru_cache(maxsize=4)
@@ -58,4 +60,27 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
         first = report.problems[0]
         out.update(stage="check", reason=f"{len(report.problems)} problem(s), first: waypoint {first.waypoint} "
                                          f"{first.kind}: {first.detail}")
+    return out
+
+
+def carry_over(result: dict, fold_text: str, fold_name: str, note: str) -> dict:
+    """`program_panel`'s `result` for another panel whose FOLD (`fold_text`) has the same fold
+    states (`fabkit.panels.production.relabel_fold`): the same waypoints, with the toolpath's
+    source re-pointed at this FOLD (name and sha256; the toolpath hash follows) and the check's
+    toolpath hash with it, `note` added to the check's notes. The check reads only the toolpath
+    and the fold states, so it is the check of these files as they are."""
+    from robot.toolpath import Toolpath
+
+    out = copy.deepcopy(result)
+    if result["toolpath"] is None:
+        return out
+    tp = Toolpath.from_json(result["toolpath"])
+    src = {**tp.source, "file": Path(fold_name).name, "sha256": hashlib.sha256(fold_text.encode()).hexdigest()}
+    moved = dataclasses.replace(tp, source=src)
+    out["toolpath"] = moved.to_json()
+    if out["check"] is not None:
+        if out["check"].get("toolpath_sha256") != tp.sha256:
+            raise ValueError("the check does not belong to the toolpath it is carried over with")
+        out["check"]["toolpath_sha256"] = moved.sha256
+        out["check"]["notes"] = list(out["check"].get("notes", [])) + [note]
     return out

@@ -41,7 +41,7 @@ def _independent_check(parts, nesting, sheet, gap, margin):
                 assert a.distance(b) >= gap - 1e-6
 
 
-@pytest.mark.parametrize("engine", ["shelf", "packingsolver"])
+@pytest.mark.parametrize("engine", ["shelf", "rows", "packingsolver"])
 def test_nesting_places_every_part_once_without_overlap(engine):
     parts = _parts()
     opts = NestOptions(sheet=(1500.0, 800.0), spacing=8.0, kerf=0.5, engine=engine, time_limit=3)
@@ -57,8 +57,26 @@ def test_grain_keeps_parts_along_the_sheet():
         n = nest_parts(parts, NestOptions(sheet=(1500.0, 800.0), grain=grain, engine="packingsolver", time_limit=2))
         assert {round(p.angle % 360, 6) for p in n.placements} <= allowed
         assert n.verify(parts) == []
-        s = nest_parts(parts, NestOptions(sheet=(1500.0, 800.0), grain=grain, engine="shelf"))
-        assert {round(p.angle % 360, 6) for p in s.placements} <= allowed and s.verify(parts) == []
+        for engine in ("shelf", "rows"):
+            s = nest_parts(parts, NestOptions(sheet=(1500.0, 800.0), grain=grain, engine=engine))
+            assert {round(p.angle % 360, 6) % 360 for p in s.placements} <= allowed and s.verify(parts) == []
+
+
+def test_rows_nest_sheared_parts_into_each_other():
+    """60 parallelograms (base 200, height 100, sheared by 150 mm, turned at random), gap 5 mm: slid
+    against each other, 8 fit a 1990 mm row (9 rows): one sheet; their bounding rectangles (350 x 100)
+    take 5 a row on the shelf baseline: two sheets."""
+    rng = np.random.default_rng(4)
+    base = Polygon([(0, 0), (200, 0), (350, 100), (150, 100)])
+    from shapely import affinity
+
+    parts = [affinity.rotate(base, float(a), origin=(0, 0)) for a in rng.uniform(0, 360, 60)]
+    opts = dict(sheet=(2000.0, 1000.0), spacing=5.0, kerf=0.0)
+    rows = nest_parts(parts, NestOptions(engine="rows", **opts))
+    shelf = nest_parts(parts, NestOptions(engine="shelf", **opts))
+    _independent_check(parts, rows, (2000.0, 1000.0), 5.0, 5.0)
+    assert rows.n_sheets == 1 and shelf.n_sheets == 2
+    assert rows.utilisation == pytest.approx(60 * 20000 / 2e6)
 
 
 def test_verify_catches_overlap_and_refusals():

@@ -72,13 +72,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--thickness", default="1mm", help="sheet thickness with its unit (default 1mm)")
     g.add_argument("--frames", type=int, default=8, help="refold states per panel, flat and folded included (default 8)")
     g.add_argument("--overrides", metavar="FILE.json", help='per-panel options, e.g. {"P003_b00_03": {"frames": 12}}')
+    g.add_argument("--each-panel", action="store_true",
+                   help="refold, program and check every panel, also panels that are the same part as another "
+                        "(default: once per part, within 0.1 um; docs/production.md)")
     g.add_argument("--sheet", default="2500x1250", metavar="WxH", help="stock sheet size in mm (default 2500x1250)")
     g.add_argument("--spacing", type=float, default=10.0, help="gap between parts and to the sheet edge, mm (default 10)")
     g.add_argument("--kerf", type=float, default=0.2, help="cutting kerf in mm, added to the spacing (default 0.2)")
     g.add_argument("--grain", choices=("none", "x", "y"), default="none",
                    help="keep each panel's arcs along the sheet's grain direction (default: any rotation)")
-    g.add_argument("--nester", choices=("packingsolver", "shelf"), default="packingsolver",
-                   help="nesting engine (default packingsolver; shelf: bounding-box shelf packing)")
+    g.add_argument("--nester", choices=("rows", "packingsolver", "shelf"), default="rows",
+                   help="nesting engine (default rows: parts at their least height, slid together on shelves; "
+                        "packingsolver: sparrow; shelf: bounding-box shelf packing)")
     g.add_argument("--nest-seconds", type=float, default=30.0, help="time limit of the nesting solver (default 30)")
     add_common(p)
 
@@ -156,7 +160,8 @@ def run(args) -> int:
         result = run_panels(layout, options, jobs=args.jobs, scheduler=args.scheduler, progress=advance)
     from fabkit.io.atomic import staging_path
 
-    report = write_run(result, staging_path(args.out), plots=not args.no_plots, cut_files=not args.no_cut_files)
+    report = write_run(result, staging_path(args.out), plots=not args.no_plots, cut_files=not args.no_cut_files,
+                       jobs=args.jobs, scheduler=args.scheduler)
     report["input"] = {"surface": args.surface, "lowpoly": lowpoly, "levels": args.levels if lowpoly else 0}
     write_report(args, report)
     last = result.rounds[-1]

@@ -60,10 +60,11 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     from fabkit.panels.output import write_run
     from fabkit.materials import parse_length
     from fabkit.panels.production import ProductionOptions, run_production, stock
+    from fabkit.panels.repeats import SAME_PART_TOL
     from fabkit.panels.production_report import summary
     from fabkit.panels.workflow import PanelsOptions
     from fabkit.report.book import write_book
-    from sim.production import program_panel
+    from sim.production import carry_over, program_panel
 
     cell_path = Path(args.cell)
     if not cell_path.is_file():
@@ -88,11 +89,12 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     t0 = time.perf_counter()
     show = _stage_printer(args)
     run = run_production(layout, out, cell_toml=cell_path.read_text(), cell_name=cell_path.name,
-                         program=program_panel, panels_options=popts,
-                         options=ProductionOptions(frames=args.frames, overrides=overrides), mat=mat,
-                         jobs=args.jobs, scheduler=args.scheduler, progress=show)
+                         program=program_panel, panels_options=popts, carry=carry_over,
+                         options=ProductionOptions(frames=args.frames, overrides=overrides,
+                                                   same_part_tol=None if args.each_panel else SAME_PART_TOL),
+                         mat=mat, jobs=args.jobs, scheduler=args.scheduler, progress=show)
     t1 = time.perf_counter()
-    write_run(run.geometry, out, plots=not args.no_plots, cut_files=True)
+    write_run(run.geometry, out, plots=not args.no_plots, cut_files=True, jobs=args.jobs, scheduler=args.scheduler)
     seconds = dict(run.seconds)
     seconds["geometry_files"] = time.perf_counter() - t1
     t1 = time.perf_counter()
@@ -116,7 +118,8 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     say(args, f"{tot['panels']} panels: {tot['ok']} ok, {tot['failed']} failed; robot time {tot['robot_time_s'] / 60:.1f} min; "
               f"{tot['sheets']} sheets {sheet[0]:g}x{sheet[1]:g} mm ({tot['utilisation']:.1%} used), "
               f"{tot['material_kg']:.1f} kg {mat.name}; recomputed {len(run.recomputed['relax_unfold'])} relax, "
-              f"{len(run.recomputed['refold_program_check'])} programs -> {out}/book.html")
+              f"{len(run.recomputed['refold_program_check'])} programs ({len(run.same_as)} of them as the same "
+              f"part as another panel) -> {out}/book.html")
     for p in [p for p in run.panels if not p.ok][:5]:
         say(args, f"  {p.name}: {p.stage}: {p.reason}")
     return 0 if run.ok else 1

@@ -2,8 +2,10 @@
 
 `nest_parts(parts, options)` places polygons (mm) on rectangular sheets with a gap between parts
 and to the sheet edge (`spacing + kerf`), rotation free or (`grain`) held so each part's grain axis
-runs along the sheet's x or y. Two engines:
+runs along the sheet's x or y. Three engines:
 
+- `rows` (default): each part turned to its least height, best-fit onto shelves and slid exactly to
+  the gap against the parts already there, so sheared sides nest (`fabkit.nest.rows`);
 - `packingsolver`: irregular nesting by sparrow (Gardeyn & Wauters, through the `spyrrow`
   package): strip packing with collision detection on the true outlines. Sheets are filled by
   packing the remaining parts into a strip of the sheet's height and keeping the parts that lie

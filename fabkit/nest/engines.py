@@ -1,4 +1,5 @@
-"""Nesting engines: sparrow strip packing split into sheets, and the bounding-box shelf baseline."""
+"""Nesting engines: row nesting (`fabkit.nest.rows`), sparrow strip packing split into sheets, and
+the bounding-box shelf baseline."""
 from __future__ import annotations
 
 import math
@@ -12,7 +13,10 @@ from shapely.geometry import Polygon, box
 
 from fabkit.errors import InputError
 
-__all__ = ["NestOptions", "Placement", "Nesting", "nest_parts", "place"]
+__all__ = ["NestOptions", "Placement", "Nesting", "nest_parts", "place", "grain_angles", "ENGINES"]
+
+#: nesting engines: row nesting (default), sparrow, and the bounding-box shelf baseline
+ENGINES = ("rows", "packingsolver", "shelf")
 
 
 @dataclass(frozen=True)
@@ -21,7 +25,7 @@ class NestOptions:
     spacing: float = 10.0                          # gap between parts and to the sheet edge [mm]
     kerf: float = 0.2                              # cutting kerf [mm], added to the gap between parts
     grain: str = "none"                            # "none" (any rotation), "x" or "y": grain axis direction
-    engine: str = "packingsolver"                  # "packingsolver" (sparrow) or "shelf"
+    engine: str = "rows"                           # "rows", "packingsolver" (sparrow) or "shelf"
     time_limit: float = 30.0                       # seconds per strip solve (packingsolver)
     seed: int = 0
 
@@ -111,7 +115,7 @@ def place(part: Polygon, p: Placement) -> Polygon:
     return affinity.translate(g, p.x, p.y)
 
 
-def _grain_angles(options: NestOptions) -> list[float] | None:
+def grain_angles(options: NestOptions) -> list[float] | None:
     """Allowed rotations of parts whose grain axis is along their x: None = free."""
     if options.grain == "none":
         return None
@@ -188,7 +192,7 @@ def _sparrow(parts, options: NestOptions) -> tuple[list[Placement], int, list[st
     W, H = options.sheet
     m, gap = options.spacing, options.gap
     usable = W - 2 * m
-    angles = _grain_angles(options)
+    angles = grain_angles(options)
     remaining = list(range(len(parts)))
     placements: list[Placement] = []
     sheets = 0
@@ -236,17 +240,21 @@ def _sparrow(parts, options: NestOptions) -> tuple[list[Placement], int, list[st
 
 def nest_parts(parts: list[Polygon], options: NestOptions = NestOptions()) -> Nesting:
     """Place `parts` (shapely polygons, mm) on sheets (see the module docstring of `fabkit.nest`)."""
-    if options.engine not in ("packingsolver", "shelf"):
-        raise InputError(f"unknown nesting engine {options.engine!r} (packingsolver, shelf)", source="--nester")
+    if options.engine not in ENGINES:
+        raise InputError(f"unknown nesting engine {options.engine!r} ({', '.join(ENGINES)})", source="--nester")
     if not all(g.is_valid and g.area > 0 for g in parts):
         bad = next(i for i, g in enumerate(parts) if not (g.is_valid and g.area > 0))
         raise InputError(f"part {bad} is not a valid polygon (self-overlapping or empty outline)")
-    _grain_angles(options)
+    grain_angles(options)
     _check_fits(parts, options)
     t0 = time.perf_counter()
     notes: list[str] = []
     if options.engine == "shelf" or not parts:
         placements, n = _shelf(parts, options)
+    elif options.engine == "rows":
+        from fabkit.nest.rows import nest_rows
+
+        placements, n, notes = nest_rows(parts, options)
     else:
         placements, n, notes = _sparrow(parts, options)
     return Nesting(options=options, placements=tuple(placements), n_sheets=n,

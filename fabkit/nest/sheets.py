@@ -221,16 +221,18 @@ def _png(drawings: list[dict], sheet_size, path: Path, title: str) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection, PolyCollection
 
     W, H = sheet_size
-    fig, ax = plt.subplots(figsize=(8, 8 * H / W))
+    fig = plt.figure(figsize=(8, 8 * (H + 40) / (W + 20)))
+    ax = fig.add_axes((0.0, 0.0, 1.0, 1.0 - 0.3 / (8 * (H + 40) / (W + 20))))  # room for the title, drawn once
     ax.add_patch(plt.Rectangle((0, 0), W, H, fill=False, color="#2ca02c"))
+    ax.add_collection(PolyCollection([d["outline"] for d in drawings], facecolor="#dde6ee", edgecolor="k", lw=0.5))
+    for layer in ("MOUNTAIN", "VALLEY"):
+        chains = [c for d in drawings for c in d["creases"].get(layer, [])]
+        if chains:
+            ax.add_collection(LineCollection(chains, colors=SHEET_LAYERS[layer][1], lw=0.6))
     for d in drawings:
-        o = np.vstack([d["outline"], d["outline"][:1]])
-        ax.fill(o[:, 0], o[:, 1], color="#dde6ee", lw=0.5, ec="k")
-        for layer, chains in d["creases"].items():
-            for c in chains:
-                ax.plot(c[:, 0], c[:, 1], color=SHEET_LAYERS[layer][1], lw=0.6)
         ax.text(*d["labels"][0][1:3], d["id"], fontsize=4, ha="center", va="center")
     ax.set_aspect("equal")
     ax.set_xlim(-10, W + 10)
@@ -238,7 +240,7 @@ def _png(drawings: list[dict], sheet_size, path: Path, title: str) -> None:
     ax.set_title(title, fontsize=9)
     ax.axis("off")
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
+        fig.savefig(tmp, format="png", dpi=110)
     plt.close(fig)
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from fabkit.io.jsonfile import to_jsonable, write_json
 from fabkit.panels.workflow import PanelsRun
 
-__all__ = ["write_run", "run_report", "band_layout"]
+__all__ = ["write_run", "run_report", "band_layout", "panel_file_texts"]
 
 
 def band_layout(run: PanelsRun, gap: float = 0.05) -> list[dict]:
@@ -122,15 +122,46 @@ def _arc_planarity(layout) -> float:
     return worst
 
 
-def write_run(run: PanelsRun, out: str | os.PathLike, *, plots: bool = True, cut_files: bool = True) -> dict:
-    """Write every artifact of `run` into `out` (created if needed); returns the report dict."""
+def panel_file_texts(task: dict) -> dict[str, str]:
+    """One panel's geometry files as {file name: text}: the relaxed and the flat OBJ, the
+    crease-pattern FOLD (validated) and, with `task["cut_files"]`, the DXF and SVG cut files.
+    Pure (picklable task in, texts out), so the panels' files are made on any executor."""
+    import io
+
     from fabkit.cutfiles.creases import crease_assignment
-    from fabkit.cutfiles.dxf import write_dxf
+    from fabkit.cutfiles.dxf import dxf_document
     from fabkit.cutfiles.pattern import cut_pattern
-    from fabkit.cutfiles.svg import write_svg
-    from fabkit.fold import FoldFrame, FoldModel
-    from fabkit.io.fold import save_fold
-    from fabkit.io.obj import save_obj
+    from fabkit.cutfiles.svg import svg_text
+    from fabkit.fold import FoldFrame, FoldModel, validate_fold_model
+    from fabkit.io.fold import fold_text
+    from fabkit.io.obj import format_obj
+
+    name, mesh, relaxed, uv = task["name"], task["mesh"], np.asarray(task["relaxed"]), np.asarray(task["uv"])
+    mesh3d = mesh.with_vertices(relaxed)
+    flat = mesh.with_vertices(np.column_stack([uv, np.zeros(len(uv))]))
+    creases = crease_assignment(mesh3d)
+    model = FoldModel.from_mesh(flat, creases.edges_assignment, creases.edges_fold_angle,
+                                frames=(FoldFrame(mesh3d.vertices, creases.edges_fold_angle),),
+                                file_data={"panel": name}, classes=("creasePattern",), title=f"fabkit panel {name}")
+    validate_fold_model(model, source=f"{name}.fold")
+    out = {f"{name}.obj": format_obj(mesh3d), f"{name}_flat.obj": format_obj(flat), f"{name}.fold": fold_text(model)}
+    if task["cut_files"]:
+        pattern = cut_pattern(mesh3d, uv, creases, panel_id=name)
+        buf = io.StringIO()
+        dxf_document(pattern).write(buf)
+        out[f"{name}.dxf"] = buf.getvalue()
+        out[f"{name}.svg"] = svg_text(pattern)
+    return out
+
+
+def write_run(run: PanelsRun, out: str | os.PathLike, *, plots: bool = True, cut_files: bool = True,
+              jobs: int = 1, scheduler: str | None = None) -> dict:
+    """Write every artifact of `run` into `out` (created if needed); returns the report dict.
+
+    The panels' files are made on `jobs` worker processes (or the dask `scheduler`) and written here;
+    the staging folder is moved into place only when all of them are written."""
+    from fabkit.io.atomic import write_error
+    from fabkit.panels.executor import map_ordered, panel_executor
 
     out = Path(out)
     parent = out.parent if str(out.parent) else Path(".")
@@ -140,21 +171,15 @@ def write_run(run: PanelsRun, out: str | os.PathLike, *, plots: bool = True, cut
         pdir = stage / "panels"
         pdir.mkdir()
         report = run_report(run)
-        for p, r in zip(run.layout.panels, run.results):
-            mesh3d = p.mesh.with_vertices(r.relaxed)
-            flat = p.mesh.with_vertices(np.column_stack([r.uv, np.zeros(len(r.uv))]))
-            save_obj(mesh3d, pdir / f"{p.name}.obj")
-            save_obj(flat, pdir / f"{p.name}_flat.obj")
-            creases = crease_assignment(mesh3d)
-            model = FoldModel.from_mesh(flat, creases.edges_assignment, creases.edges_fold_angle,
-                                        frames=(FoldFrame(mesh3d.vertices, creases.edges_fold_angle),),
-                                        file_data={"panel": p.name}, classes=("creasePattern",),
-                                        title=f"fabkit panel {p.name}")
-            save_fold(model, pdir / f"{p.name}.fold")
-            if cut_files:
-                pattern = cut_pattern(mesh3d, r.uv, creases, panel_id=p.name)
-                write_dxf(pattern, pdir / f"{p.name}.dxf")
-                write_svg(pattern, pdir / f"{p.name}.svg")
+        tasks = [{"name": p.name, "mesh": p.mesh, "relaxed": r.relaxed, "uv": r.uv, "cut_files": cut_files}
+                 for p, r in zip(run.layout.panels, run.results)]
+        with panel_executor(jobs if len(tasks) > 1 else 1, scheduler) as ex:
+            for files in map_ordered(ex, panel_file_texts, tasks):
+                for fname, text in files.items():  # the staging folder is the atomic unit (moved at the end)
+                    try:
+                        (pdir / fname).write_text(text, encoding="utf-8")
+                    except OSError as exc:
+                        raise write_error(exc, out / "panels" / fname) from None
         bands = band_layout(run)
         write_json(stage / "band_layout.json", {"format": "fabkit.bands/1", "placements": bands})
         if plots:

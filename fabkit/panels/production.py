@@ -8,15 +8,15 @@ function that does both (`sim.production.program_panel`), so this module stays g
 
 Each panel ends `ok` or with the stage that stopped it and the reason. Work is resumable by
 content: relax/unfold results are cached by the hash of their inputs (`fabkit.panels.cache`), and
-the manifest (`manifest.json`) records per panel the hash of everything the later stages read
+the manifest (`manifest.json`, `fabkit.panels.manifest`) records per panel the hash of everything the later stages read
 (geometry, cell text, material, options) with the SHA-256 of every file written; a panel whose hash
 and files are unchanged is not recomputed. The manifest is rewritten after every finished panel, so
-a run that is killed keeps every finished panel.
+a run that is killed keeps every finished panel. Panels that are the same part share one refold,
+program and check (`fabkit.panels.repeats`, `same_part_tol`).
 """
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import os
 import time
@@ -28,15 +28,16 @@ from typing import Callable
 import numpy as np
 
 from fabkit.errors import InputError
-from fabkit.io.jsonfile import to_jsonable
+from fabkit.panels.manifest import MANIFEST, files_intact, load_manifest, store_panel_files, write_manifest
+from fabkit.panels.repeats import SAME_PART_TOL, relabel_fold, same_part_classes, same_part_result
 
-__all__ = ["Stock", "stock", "ProductionOptions", "PanelStatus", "ProductionRun",
-           "refold_and_program", "run_production", "crease_loss", "geometry_status", "MANIFEST", "STAGES"]
+__all__ = ["Stock", "stock", "ProductionOptions", "PanelStatus", "ProductionRun", "refold_inputs",
+           "refold_and_program", "program_task", "same_part_result", "relabel_fold", "run_production",
+           "crease_loss", "geometry_status", "MANIFEST", "STAGES"]
 
-MANIFEST = "manifest.json"
 STAGES = ("relax", "unfold", "refold", "program", "check")
 #: Code salt of the later stages' hash: bump it when their outputs change meaning.
-PROGRAM_SALT = "fabkit.production.program/1"
+PROGRAM_SALT = "fabkit.production.program/2"
 
 
 @dataclass(frozen=True)
@@ -71,6 +72,8 @@ class ProductionOptions:
                                          # (2 um on a 0.2 m panel; only the middle row is driven, §3.6)
     length_tol: float = 1e-6             # flat vs relaxed edge lengths a refold accepts (relative)
     overrides: dict = field(default_factory=dict)   # panel name -> {"frames": n}
+    same_part_tol: float | None = SAME_PART_TOL    # panels that are the same part to this [m] share one
+                                                    # refold, program and check (None: compute each panel)
 
 
 @dataclass(frozen=True)
@@ -85,6 +88,7 @@ class PanelStatus:
     grip_face: int | None
     files: dict              # kind -> path relative to the run folder
     recomputed: bool
+    same_as: str | None = None   # the panel of the same part whose refold, program and check it has
 
 
 @dataclass(frozen=True)
@@ -93,6 +97,8 @@ class ProductionRun:
     geometry: object          # the PanelsRun
     seconds: dict
     recomputed: dict          # stage -> panel ids computed in this run (the rest were reused)
+    same_as: dict = field(default_factory=dict)   # panel name -> the panel of the same part whose
+                                                  # refold, program and check it got in this run
 
     @property
     def ok(self) -> bool:
@@ -101,10 +107,6 @@ class ProductionRun:
     @property
     def robot_time_s(self) -> float:
         return float(sum(p.cycle_time_s or 0.0 for p in self.panels))
-
-
-def _sha(text: str | bytes) -> str:
-    return hashlib.sha256(text.encode() if isinstance(text, str) else text).hexdigest()
 
 
 def _mostly_valley(mesh) -> bool:
@@ -141,19 +143,11 @@ def _panel_frame(uv: np.ndarray, faces: np.ndarray, fd: dict, clamped: int, side
     return (uv - c0) @ R.T
 
 
-def refold_and_program(task: dict) -> dict:
-    """Refold one panel, then program and check it with `task["program"]`. Pure: data in, data out."""
-    from fabkit.fold import validate_fold_model
-    from fabkit.io.fold import fold_text
+def refold_inputs(task: dict):
+    """(flat, target, clamped face, laid back up) of a panel task: the flat pattern in the panel
+    frame and the relaxed panel the refold folds it into (faces reversed when the back is up)."""
     from fabkit.mesh import PolyMesh
-    from fabkit.refold import NotAFoldError, RefoldSolver
-    from fabkit.refold.export import to_fold_model
-    from fabkit.refold.sequence import build_schedule
 
-    t0 = time.perf_counter()
-    name = task["name"]
-    out = {"id": task["id"], "name": name, "stage": None, "reason": "", "fold": None, "toolpath": None,
-           "check": None, "cycle_time_s": None, "grip_face": None, "refold": None, "face_up_on_fixture": None}
     faces = np.asarray(task["faces"])
     fd = {k: np.asarray(v) for k, v in task["face_data"].items()}
     uv = np.asarray(task["uv"], dtype=np.float64)
@@ -167,6 +161,22 @@ def refold_and_program(task: dict) -> dict:
         uv = uv * np.array([1.0, -1.0])
         target = PolyMesh(np.asarray(task["relaxed"]), faces, face_data=fd)
     flat = PolyMesh(np.column_stack([uv, np.zeros(len(uv))]), faces, face_data=fd)
+    return flat, target, clamped, back_up
+
+
+def refold_and_program(task: dict) -> dict:
+    """Refold one panel, then program and check it with `task["program"]`. Pure: data in, data out."""
+    from fabkit.fold import validate_fold_model
+    from fabkit.io.fold import fold_text
+    from fabkit.refold import NotAFoldError, RefoldSolver
+    from fabkit.refold.export import to_fold_model
+    from fabkit.refold.sequence import build_schedule
+
+    t0 = time.perf_counter()
+    name = task["name"]
+    out = {"id": task["id"], "name": name, "stage": None, "reason": "", "fold": None, "toolpath": None,
+           "check": None, "cycle_time_s": None, "grip_face": None, "refold": None, "face_up_on_fixture": None}
+    flat, target, clamped, back_up = refold_inputs(task)
     out["face_up_on_fixture"] = "back" if back_up else "front"
     try:
         solver = RefoldSolver(flat, target, fixed_face=clamped, length_rtol=task["length_tol"],
@@ -198,7 +208,7 @@ def refold_and_program(task: dict) -> dict:
     return out
 
 
-def _program_task(panel, result, options: ProductionOptions, cell_toml: str, cell_name: str, mat: Stock,
+def program_task(panel, result, options: ProductionOptions, cell_toml: str, cell_name: str, mat: Stock,
                   program: Callable) -> dict:
     frames = int(options.overrides.get(panel.name, {}).get("frames", options.frames))
     fd = {k: np.asarray(v) for k, v in panel.mesh.face_data.items() if k in ("strip", "column", "middle", "row")}
@@ -208,51 +218,21 @@ def _program_task(panel, result, options: ProductionOptions, cell_toml: str, cel
             "cell_name": cell_name, "thickness": mat.thickness, "program": program}
 
 
-def load_manifest(out: Path) -> dict:
-    path = out / MANIFEST
-    if not path.is_file():
-        return {"format": "fabkit.production/1", "panels": {}}
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError):
-        return {"format": "fabkit.production/1", "panels": {}}
-    return data if isinstance(data.get("panels"), dict) else {"format": "fabkit.production/1", "panels": {}}
-
-
-def _write_manifest(out: Path, manifest: dict) -> None:
-    tmp = out / f".{MANIFEST}.{os.getpid()}.tmp"
-    tmp.write_text(json.dumps(to_jsonable(manifest), indent=1, allow_nan=False) + "\n")
-    os.replace(tmp, out / MANIFEST)
-
-
-def _write_text(path: Path, text: str) -> str:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-    return _sha(text)
-
-
-def _files_intact(out: Path, entry: dict) -> bool:
-    for rec in entry.get("files", {}).values():
-        p = out / rec["path"]
-        if not p.is_file() or _sha(p.read_bytes()) != rec["sha256"]:
-            return False
-    return True
-
-
-def _store(out: Path, r: dict) -> dict:
-    """Write one panel's refold/program/check files; returns kind -> {"path", "sha256"}."""
-    files = {}
-    pdir = out / "panels"
-    for kind, suffix, value in (("refold", "_refold.fold", r.get("fold")),
-                                ("program", "_path.json", r.get("toolpath")),
-                                ("check", "_check.json", r.get("check"))):
-        if value is None:
-            continue
-        text = value if isinstance(value, str) else json.dumps(to_jsonable(value), indent=1, allow_nan=False) + "\n"
-        rel = f"panels/{r['name']}{suffix}"
-        files[kind] = {"path": rel, "sha256": _write_text(pdir / f"{r['name']}{suffix}", text)}
-    return files
+def _part(task: dict) -> dict:
+    """What `fabkit.panels.repeats.same_part_classes` compares of a panel task: the flat pattern in
+    the panel frame and the relaxed panel (whether the back is laid up follows from the relaxed
+    panel's fold angles, which a rigid motion keeps, so it is not computed here)."""
+    faces = np.asarray(task["faces"])
+    fd = {k: np.asarray(v) for k, v in task["face_data"].items()}
+    uv = np.asarray(task["uv"], dtype=np.float64)
+    clamped = _clamped_face(fd)
+    if clamped is not None:
+        uv = _panel_frame(uv, faces, fd, clamped, task.get("side", (0.0, 1.0)))
+    exact = {"faces": faces, "clamped": -1 if clamped is None else clamped, "side": tuple(task.get("side", (0.0, 1.0))),
+             **{f"tag:{k}": v for k, v in fd.items()},
+             **{k: task[k] for k in ("frames", "target_tol", "length_tol", "cell_toml", "cell_name", "thickness")},
+             "program": f"{task['program'].__module__}.{task['program'].__qualname__}"}
+    return {"exact": exact, "flat": uv, "target": np.asarray(task["relaxed"], dtype=np.float64)}
 
 
 #: A crease counts as kept when the relaxed panel's mean fold along it is at least this fraction of
@@ -303,7 +283,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
                    panels_options=None, options: ProductionOptions = ProductionOptions(),
                    mat: Stock | None = None, jobs: int = 1, scheduler: str | None = None,
                    progress: Callable | None = None, timeout: float | None = None,
-                   select=None) -> ProductionRun:
+                   select=None, carry: Callable | None = None) -> ProductionRun:
     """Run every stage for every panel of `layout` into folder `out` (see the module docstring).
 
     `program(fold_text, fold_name, cell_toml, cell_name, thickness) -> dict` plans and checks one
@@ -311,6 +291,10 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     finish a stage. Per-panel files go to `out/panels/`; the geometry files (OBJ, crease-pattern
     FOLD, DXF/SVG) are written by the caller (`fabkit.panels.output.write_run`). `select`: panel
     names to take past the unfold (None: all); the others end at stage "refold", "not selected".
+    `carry(program_result, fold_text, fold_name, note) -> program_result` re-points a program and
+    check at the FOLD of a panel of the same part (`sim.production.carry_over`): with it and
+    `options.same_part_tol` set, only one panel per part (`fabkit.panels.repeats`) is refolded,
+    programmed and checked; the others get its results, each recorded with the deviation.
     """
     mat = stock() if mat is None else mat
     from fabkit.panels.cache import ResultCache
@@ -337,54 +321,73 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     manifest = load_manifest(out)
     entries = manifest["panels"]
     t0 = time.perf_counter()
-    tasks, keys, statuses, recomputed = {}, {}, {}, set()
+    tasks, keys, statuses, recomputed, same_as = {}, {}, {}, set(), {}
     for p in layout.panels:
         bad = geometry_status(geometry, p)
         if bad:
-            statuses[p.id] = (bad[0], bad[1], {}, None, None)
+            statuses[p.id] = (bad[0], bad[1], {}, None, None, None)
             entries[p.name] = {"hash": None, "stage": bad[0], "reason": bad[1], "files": {}}
             continue
         if select is not None and p.name not in select:
-            statuses[p.id] = ("refold", "not selected for refold, program and check in this run", {}, None, None)
+            statuses[p.id] = ("refold", "not selected for refold, program and check in this run", {}, None, None, None)
             continue
-        task = _program_task(p, geometry.results[p.id], options, cell_toml, cell_name, mat, program)
-        key = hashlib.sha256((PROGRAM_SALT + cache.key(task)).encode()).hexdigest()
+        task = program_task(p, geometry.results[p.id], options, cell_toml, cell_name, mat, program)
+        reuse = options.same_part_tol if carry is not None else None
+        key = hashlib.sha256((PROGRAM_SALT + cache.key({**task, "same_part_tol": reuse})).encode()).hexdigest()
         prev = entries.get(p.name)
-        if prev and prev.get("hash") == key and _files_intact(out, prev):
+        if prev and prev.get("hash") == key and files_intact(out, prev):
             statuses[p.id] = (prev["stage"], prev["reason"], prev["files"], prev.get("cycle_time_s"),
-                              prev.get("grip_face"))
+                              prev.get("grip_face"), prev.get("same_as"))
         else:
             tasks[p.id], keys[p.id] = task, key
     finished = len(statuses)
     if progress:
         progress("refold+program+check", finished, n)
     if tasks:
+        tol = options.same_part_tol
+        t1 = time.perf_counter()
+        if carry is not None and tol is not None:
+            classes = same_part_classes({pid: _part(t) for pid, t in tasks.items()}, tol)
+        else:
+            classes = None
+        reps = classes.representatives if classes else sorted(tasks)
+        seconds["same_parts"] = time.perf_counter() - t1
+
+        def finish(pid: int, r: dict) -> None:
+            nonlocal finished
+            files = store_panel_files(out, r)
+            entries[r["name"]] = {"hash": keys[pid], "stage": r["stage"], "reason": r["reason"], "files": files,
+                                  "cycle_time_s": r["cycle_time_s"], "grip_face": r["grip_face"],
+                                  "refold": r["refold"], "seconds": r.get("seconds"),
+                                  "face_up_on_fixture": r.get("face_up_on_fixture"),
+                                  "same_as": r.get("same_as"), "same_part_deviation_m": r.get("same_part_deviation_m")}
+            statuses[pid] = (r["stage"], r["reason"], files, r["cycle_time_s"], r["grip_face"], r.get("same_as"))
+            recomputed.add(pid)
+            finished += 1
+
         with panel_executor(jobs, scheduler) as ex:
-            futures = {ex.submit(single_threaded, refold_and_program, t): pid for pid, t in tasks.items()}
+            futures = {ex.submit(single_threaded, refold_and_program, tasks[pid]): pid for pid in reps}
             for f in as_completed(futures, timeout=timeout):
                 r = f.result()
                 pid = futures[f]
-                files = _store(out, r)
-                entries[r["name"]] = {"hash": keys[pid], "stage": r["stage"], "reason": r["reason"], "files": files,
-                                      "cycle_time_s": r["cycle_time_s"], "grip_face": r["grip_face"],
-                                      "refold": r["refold"], "seconds": r.get("seconds"),
-                                      "face_up_on_fixture": r.get("face_up_on_fixture")}
-                _write_manifest(out, manifest)
-                statuses[pid] = (r["stage"], r["reason"], files, r["cycle_time_s"], r["grip_face"])
-                recomputed.add(pid)
-                finished += 1
+                finish(pid, r)
+                for m in (classes.members(pid) if classes else ()):
+                    finish(m, same_part_result(r, tasks[m], classes.deviation[m], tol, carry))
+                    same_as[tasks[m]["name"]] = r["name"]
+                write_manifest(out, manifest)
                 if progress:
                     progress("refold+program+check", finished, n)
-    _write_manifest(out, manifest)
+    write_manifest(out, manifest)
     seconds["refold_program_check"] = time.perf_counter() - t0
     panels = []
     for p in layout.panels:
-        stage, reason, files, ct, grip = statuses[p.id]
+        stage, reason, files, ct, grip, same = statuses[p.id]
         panels.append(PanelStatus(id=p.id, name=p.name, ok=stage is None, stage=stage, reason=reason,
                                   cycle_time_s=ct, unfold_max=float(geometry.results[p.id].unfold_max),
                                   grip_face=grip, files={k: v["path"] for k, v in files.items()},
-                                  recomputed=p.id in recomputed))
+                                  recomputed=p.id in recomputed, same_as=same))
     return ProductionRun(panels=tuple(panels), geometry=geometry, seconds=seconds,
                          recomputed={"relax_unfold": sorted(int(i) for i in cache.computed),
-                                     "refold_program_check": sorted(recomputed)})
+                                     "refold_program_check": sorted(recomputed)},
+                         same_as=same_as)
 

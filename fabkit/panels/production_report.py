@@ -59,7 +59,7 @@ def summary(run, nest, mat, layout) -> dict:
         per.append({"id": p.id, "name": p.name, "band": lp.band, "index": lp.index, "ok": p.ok,
                     "status": "ok" if p.ok else p.stage, "reason": p.reason, "cycle_time_s": p.cycle_time_s,
                     "unfold_max": p.unfold_max, "grip_face": p.grip_face, "sheet": sheet_of.get(p.id),
-                    "recomputed": p.recomputed,
+                    "recomputed": p.recomputed, "same_as": p.same_as,
                     "files": {**{k: v.format(p.name) for k, v in geo.items()}, **p.files}})
     return {
         "format": "fabkit.production/1", "ok": run.ok, "material": {"name": mat.name, "thickness_m": mat.thickness,
@@ -67,6 +67,7 @@ def summary(run, nest, mat, layout) -> dict:
         "totals": {"panels": len(run.panels), "ok": ok, "failed": len(run.panels) - ok,
                    "failed_by_stage": dict(Counter(p.stage for p in run.panels if not p.ok)),
                    "robot_time_s": run.robot_time_s, "sheets": n_sheets, "sheet_mm": [W, H],
+                   "parts": len({p.same_as or p.name for p in run.panels}),
                    "utilisation": nest.nesting.utilisation,
                    "utilisation_last_sheet_by_length": nest.nesting.used_length_utilisation(nest.parts),
                    "panel_area_m2": nest.nesting.part_area * 1e-6, "material_area_m2": material_area,

@@ -27,7 +27,7 @@ STATUS_COLOURS = {"ok": "#2e9d4f", "relax": "#7b3294", "unfold": "#c2a5cf", "ref
 
 SCRIPT = """
 const data = JSON.parse(document.getElementById('panel-data').textContent);
-const cols = [['name','panel'],['band','band'],['status','status'],['reason','reason'],['cycle_time_s','cycle s'],
+const cols = [['name','panel'],['band','band'],['status','status'],['reason','reason'],['same_as','same part as'],['cycle_time_s','cycle s'],
   ['unfold_max','unfold max'],['sheet','sheet'],['links','files']];
 const kinds = [['dxf','cut'],['refold','FOLD'],['crease_pattern','pattern'],['program','program'],['check','check'],
   ['obj','3D']];
