@@ -33,6 +33,7 @@ from robot import kinematics as K
 from robot.cell import Cell, matrix_to_pose, pose_to_matrix
 from robot.motion import (MotionParams, blend_overlaps, blend_radii, cycle_time, joint_speed_estimates,
                           limited_params)
+from robot.holds_record import holds_record
 from robot.toolpath import Toolpath, Waypoint
 
 __all__ = ["PlanOptions", "PlanningError", "PlanResult", "grip_offset", "tcp_targets", "plan_toolpath", "plan_panel",
@@ -224,8 +225,9 @@ class PlanResult:
 
 
 def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions = PlanOptions(),
-                  source: dict | None = None, grip_face: int = -1) -> PlanResult:
-    """Plan the operations for one grip face's frames `(S, 4, 4)` (panel frame) in `cell`.
+                  source: dict | None = None, grip_face: int = -1, clamped_faces=()) -> PlanResult:
+    """Plan the operations for one grip face's frames `(S, 4, 4)` (panel frame) in `cell`;
+    `clamped_faces` (polygon ids) are recorded with the grip face in PATH.json's `holds`.
 
     Raises `PlanningError` naming the first waypoint that no branch can execute.
     """
@@ -284,10 +286,11 @@ def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions =
     home_t = _Target(T_home, "movej", "home", 0, q_home)
     end_t = _Target(T_home, "movej", "home", S - 1, q_home)
     targets = [home_t] + best + [end_t]
-    return _finish(cell, targets, options, source or {}, grip_face)
+    return _finish(cell, targets, options, source or {}, grip_face, clamped_faces)
 
 
-def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, grip_face: int) -> PlanResult:
+def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, grip_face: int,
+            clamped_faces=()) -> PlanResult:
     """Speeds, blends, timing and joint-speed limits for the waypoint list; builds the Toolpath."""
     p = limited_params(opt.params, cell.limits)
     n = len(targets)
@@ -339,6 +342,7 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
         "grip": {"output": cell.tool.grip_output, "kind": cell.tool.grip_output_kind,
                  "grip_dwell_s": p.grip_dwell, "release_dwell_s": p.release_dwell, "face": int(grip_face)},
         "cycle_time_s": ct.total,
+        "holds": holds_record(ops, grip_face, clamped_faces),
         "checks": {"branch": branch, "max_joint_step_rad": max_step, "max_fold_joint_step_rad": max_fold_step,
                    "joint_speed_ratio": ratio,
                    "min_singularity": min_sing, "fk_tolerance_m": K.IK_TOL_POS},
@@ -350,7 +354,7 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
 
 
 def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: PlanOptions = PlanOptions(),
-               source: dict | None = None) -> PlanResult:
+               source: dict | None = None, clamped_faces=()) -> PlanResult:
     """Plan for a panel's middle-row frames (`fabkit.frames.FaceFrames`).
 
     With `grip_face` None the face is chosen automatically: faces that move (not the clamped
@@ -374,7 +378,8 @@ def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: Pla
     for face in order:
         try:
             res = plan_toolpath(cell, frames.of_face(face), options=options,
-                                source={**(source or {}), "grip_face": face}, grip_face=face)
+                                source={**(source or {}), "grip_face": face}, grip_face=face,
+                                clamped_faces=clamped_faces)
             return replace(res, tried=tuple(tried))
         except PlanningError as exc:
             tried.append((face, exc))

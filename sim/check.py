@@ -63,6 +63,7 @@ class CheckReport:
     along_path: dict = field(default_factory=dict)  # per-waypoint clearance and joint-speed ratio
     cell_sha256: str = ""
     fold: dict | None = None
+    holds: dict | None = None            # sim.check_holds: per-state hold proofs (None: no panel)
 
     def to_json(self) -> dict:
         return {
@@ -85,6 +86,7 @@ class CheckReport:
             "panel_faces": self.panel_faces,
             "notes": list(self.notes),
             "along_path": self.along_path,
+            "holds": self.holds,
         }
 
 
@@ -176,7 +178,24 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
                   f"checked in {cell.name!r} ({getattr(cell, 'sha256', '')[:12]}…)",)
     report = replace(report, notes=notes,
                      fold=None if fold_path is None else {"path": str(fold_path), "sha256": fold_sha})
+    report = _with_panel_checks(report, tp, prog, fold_path)
+
     return ToolpathCheck(report=report, dense=dense, program=prog, panel=panel, fold_path=fold_path)
+
+
+def _with_panel_checks(report: CheckReport, tp, prog: Program, fold_path: Path | None) -> CheckReport:
+    """The report with the checks of the panel itself added: its holds (`sim.check_holds`)."""
+    if fold_path is None:
+        return replace(report, notes=report.notes + ("no panel: the holds were not proven",))
+    from fabkit.io.fold import load_fold
+    from sim.check_holds import check_holds
+
+    model = load_fold(fold_path)
+    holds = check_holds(tp, model, prog.states, source=str(fold_path))
+    problems = tuple(sorted(report.problems + holds.problems,
+                            key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
+    return replace(report, problems=problems, ok=not problems, holds=holds.record,
+                   notes=report.notes + holds.notes)
 
 
 def check_toolpath(toolpath, cell, *, fold: str | Path | None = None, use_panel: bool = True,
