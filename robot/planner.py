@@ -33,6 +33,7 @@ from robot import kinematics as K
 from robot.cell import Cell, matrix_to_pose, pose_to_matrix
 from robot.motion import (MotionParams, blend_overlaps, blend_radii, cycle_time, joint_speed_estimates,
                           limited_params)
+from robot.blends import cap_blend_radii
 from robot.holds_record import holds_record
 from robot.toolpath import Toolpath, Waypoint
 
@@ -306,7 +307,7 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
     # stops: every movej, grip/release/retract, a change of move kind, and the last waypoint
     stops = np.array([m == "movej" or o in ("grip", "release", "retract", "home") for m, o in zip(moves, ops)])
     stops[:-1] |= moves[1:] != moves[:-1]
-    r = blend_radii(P, stops, p.blend_max)
+    r = cap_blend_radii(P, blend_radii(P, stops, p.blend_max))  # neighbours <= 90 % of their segment
     dwell = np.array([p.grip_dwell if o == "grip" else p.release_dwell if o == "release" else 0.0 for o in ops])
     limit = np.asarray(cell.limits.joint_speed)
     # lower movel speeds where the joints would exceed their limits (near singularities)

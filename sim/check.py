@@ -64,6 +64,7 @@ class CheckReport:
     cell_sha256: str = ""
     fold: dict | None = None
     holds: dict | None = None            # sim.check_holds: per-state hold proofs (None: no panel)
+    panel_collisions: dict | None = None  # sim.check_panel_collisions (None: no panel)
 
     def to_json(self) -> dict:
         return {
@@ -87,6 +88,7 @@ class CheckReport:
             "notes": list(self.notes),
             "along_path": self.along_path,
             "holds": self.holds,
+            "panel_collisions": self.panel_collisions,
         }
 
 
@@ -178,24 +180,30 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
                   f"checked in {cell.name!r} ({getattr(cell, 'sha256', '')[:12]}…)",)
     report = replace(report, notes=notes,
                      fold=None if fold_path is None else {"path": str(fold_path), "sha256": fold_sha})
-    report = _with_panel_checks(report, tp, prog, fold_path)
+    report = _with_panel_checks(report, tp, prog, cell, fold_path, thickness)
 
     return ToolpathCheck(report=report, dense=dense, program=prog, panel=panel, fold_path=fold_path)
 
 
-def _with_panel_checks(report: CheckReport, tp, prog: Program, fold_path: Path | None) -> CheckReport:
-    """The report with the checks of the panel itself added: its holds (`sim.check_holds`)."""
+def _with_panel_checks(report: CheckReport, tp, prog: Program, cell, fold_path: Path | None,
+                       thickness: float | None) -> CheckReport:
+    """The report with the checks of the panel itself added: its holds (`sim.check_holds`) and
+    its collisions with the cell and itself (`sim.check_panel_collisions`)."""
     if fold_path is None:
-        return replace(report, notes=report.notes + ("no panel: the holds were not proven",))
+        return replace(report, notes=report.notes + ("no panel: the holds and the panel's own collisions were not "
+                                                     "checked",))
     from fabkit.io.fold import load_fold
     from sim.check_holds import check_holds
+    from sim.check_panel_collisions import check_panel_collisions_of_fold
 
     model = load_fold(fold_path)
     holds = check_holds(tp, model, prog.states, source=str(fold_path))
-    problems = tuple(sorted(report.problems + holds.problems,
+    panel = check_panel_collisions_of_fold(model, cell, prog.states, holds.record["clamped_faces"],
+                                           thickness=thickness)
+    problems = tuple(sorted(report.problems + holds.problems + panel.problems,
                             key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
     return replace(report, problems=problems, ok=not problems, holds=holds.record,
-                   notes=report.notes + holds.notes)
+                   panel_collisions=panel.record, notes=report.notes + holds.notes)
 
 
 def check_toolpath(toolpath, cell, *, fold: str | Path | None = None, use_panel: bool = True,
