@@ -209,9 +209,8 @@ def hold_model_from_fold(model, source: str | None = None) -> tuple[HoldModel, n
     from fabkit.errors import InputError
     from fabkit.refold.triangulate import EDGE_KINDS
 
-    if any(len(f) != 3 for f in model.faces_vertices) or "kind" not in model.edges_data:
-        raise InputError("the hold analysis needs a FOLD file from fabkit refold (triangles with "
-                         "edges_fabkit:kind)", source=source)
+    if any(len(f) != 3 for f in model.faces_vertices):
+        raise InputError("the hold analysis needs a triangulated FOLD file (as fabkit refold writes it)", source=source)
     tris = np.array(model.faces_vertices, np.int64)
     V = np.asarray(model.vertices_coords, np.float64)
     topo = MeshTopology(tris.ravel(), np.arange(0, 3 * len(tris) + 1, 3), len(V))
@@ -224,6 +223,8 @@ def hold_model_from_fold(model, source: str | None = None) -> tuple[HoldModel, n
         out[ids] = values
         return out
 
+    if "kind" not in model.edges_data:
+        return _hold_model_from_geometry(model, topo, tris, V, source)
     kind = np.array(EDGE_KINDS)[per_edge(np.asarray(model.edges_data["kind"], np.int64), 0)]
     crease = per_edge(np.asarray(model.edges_data.get("crease", np.full(model.n_edges, -1)), np.int64), -1)
     frames = model.frames or ()
@@ -235,6 +236,52 @@ def hold_model_from_fold(model, source: str | None = None) -> tuple[HoldModel, n
         target_angles=per_edge(np.asarray(model.edges_fold_angle, np.float64), 0.0),
         tri_face=np.asarray(model.faces_data.get("polygon", np.arange(len(tris))), np.int64),
         fixed_triangle=int(model.file_data.get("fabkit:fixed_triangle", 0)),
+        panel_size=float(np.linalg.norm(np.ptp(V[used], axis=0))))
+    return HoldModel.from_sequence(seq), angles
+
+
+def _hold_model_from_geometry(model, topo, tris, V, source) -> tuple[HoldModel, np.ndarray]:
+    """The hold model of a triangulated FOLD file without refold's hinge kinds, from its geometry:
+    the fold angle of every edge in every frame (signed dihedral, valley +), edges inside one
+    polygon (`faces_fabkit:polygon`) are diagonals, edges between faces of different strips
+    (`faces_fabkit:strip`) that fold in some frame are creases of the row min(strip) (with no strip
+    tags: edges assigned M or V), every other interior edge is a ruling (a flat one is locked)."""
+    from types import SimpleNamespace
+
+    from fabkit.measures import dihedral_angles
+
+    frames = range(model.n_frames) if model.n_frames else [None]
+    angles = []
+    for i in frames:
+        mesh = model.mesh(validate=False) if i is None else model.frame_mesh(i)
+        a = np.zeros(topo.n_edges)
+        a[topo.edge_ids(mesh.edges)] = dihedral_angles(mesh)
+        angles.append(a)
+    angles = np.stack(angles)
+    folds = np.abs(angles).max(axis=0) > 1e-6
+    ef = topo.edge_faces
+    inner = np.zeros(topo.n_edges, bool)
+    inner[topo.interior_edges] = True
+    a, b = np.maximum(ef[:, 0], 0), np.maximum(ef[:, 1], 0)
+    poly = np.asarray(model.faces_data.get("polygon", np.arange(len(tris))), np.int64)
+    kind = np.where(inner, "ruling", "boundary").astype("<U8")
+    kind[inner & (poly[a] == poly[b])] = "diagonal"
+    crease = np.full(topo.n_edges, -1, np.int64)
+    between = inner & (poly[a] != poly[b])
+    if "strip" in model.faces_data:
+        strip = np.asarray(model.faces_data["strip"], np.int64)
+        is_crease = between & (strip[a] != strip[b]) & folds
+        crease[is_crease] = np.minimum(strip[a], strip[b])[is_crease]
+    else:
+        mv = np.isin(np.asarray(model.edges_assignment), ["M", "V"])
+        is_crease = np.zeros(topo.n_edges, bool)
+        is_crease[topo.edge_ids(np.sort(np.asarray(model.edges_vertices), axis=1))] = mv
+        is_crease &= between
+    kind[is_crease] = "crease"
+    used = np.unique(tris)
+    seq = SimpleNamespace(
+        tris=tris, flat_vertices=V, edges=topo.edges, edge_kind=kind, edge_crease=crease, target_angles=angles[-1],
+        tri_face=poly, fixed_triangle=int(model.file_data.get("fabkit:fixed_triangle", 0)),
         panel_size=float(np.linalg.norm(np.ptp(V[used], axis=0))))
     return HoldModel.from_sequence(seq), angles
 

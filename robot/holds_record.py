@@ -46,8 +46,19 @@ def holds_of(extra: dict, n_waypoints: int) -> dict | None:
     return h
 
 
-def clamped_faces_of(fold_model) -> tuple[int, ...]:
-    """The clamped face of a FOLD file from `fabkit refold` (`file_fabkit:fixed_face`: the fold
-    states are in its frame), or () when the file names none."""
+def clamped_faces_of(fold_model, tol: float = 1e-9) -> tuple[int, ...]:
+    """The clamped faces of a FOLD file: `file_fabkit:fixed_face` as `fabkit refold` writes it (the
+    fold states are in its frame); for a file that names none, the faces (polygon ids) whose
+    vertices stay within `tol` [m] of their first position in every state, the faces the states
+    hold still."""
+    import numpy as np
+
+    from fabkit.frames import face_groups, fold_positions
+
     f = fold_model.file_data.get("fabkit:fixed_face")
-    return (int(f),) if isinstance(f, int) and not isinstance(f, bool) and f >= 0 else ()
+    if isinstance(f, int) and not isinstance(f, bool) and f >= 0:
+        return (int(f),)
+    P = fold_positions(fold_model)
+    still = np.linalg.norm(P - P[:1], axis=2).max(axis=0) <= tol
+    groups = face_groups(fold_model.faces_vertices, fold_model.faces_data)
+    return tuple(int(i) for i, v in zip(groups.ids, groups.vertices) if still[v].all())
