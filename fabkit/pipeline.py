@@ -187,6 +187,7 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     from fabkit.io.load import load_fold_model
     from robot.cell import load_cell
     from robot.holds_record import clamped_faces_of
+    from robot.panel_placement import placed_cell, placement_for
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from sim.panel import check_fold_coordinates
 
@@ -208,8 +209,9 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     common = dict(workdir=folder, fold_file=fold_file, cell=cell_obj, cell_file=Path(cell),
                   details={"states": int(frames.n_states), "middle_row": frames.faces.tolist()})
     try:
-        res = plan_panel(cell_obj, frames, grip_face=grip_face, options=options, source=source,
-                         clamped_faces=clamped_faces_of(model))
+        placement = placement_for(cell_obj, model)   # the clamped face on the cell's clamp
+        res = plan_panel(placed_cell(cell_obj, placement), frames, grip_face=grip_face, options=options,
+                         source=source, clamped_faces=clamped_faces_of(model), placement=placement)
     except PlanningError as exc:
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),), **common)
     path_file = folder / PATH_NAME

@@ -226,9 +226,11 @@ class PlanResult:
 
 
 def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions = PlanOptions(),
-                  source: dict | None = None, grip_face: int = -1, clamped_faces=()) -> PlanResult:
+                  source: dict | None = None, grip_face: int = -1, clamped_faces=(),
+                  placement: dict | None = None) -> PlanResult:
     """Plan the operations for one grip face's frames `(S, 4, 4)` (panel frame) in `cell`;
-    `clamped_faces` (polygon ids) are recorded with the grip face in PATH.json's `holds`.
+    `clamped_faces` (polygon ids) are recorded with the grip face in PATH.json's `holds`;
+    `placement` (`robot.panel_placement`, already applied to `cell`) is recorded as it is.
 
     Raises `PlanningError` naming the first waypoint that no branch can execute.
     """
@@ -287,11 +289,11 @@ def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions =
     home_t = _Target(T_home, "movej", "home", 0, q_home)
     end_t = _Target(T_home, "movej", "home", S - 1, q_home)
     targets = [home_t] + best + [end_t]
-    return _finish(cell, targets, options, source or {}, grip_face, clamped_faces)
+    return _finish(cell, targets, options, source or {}, grip_face, clamped_faces, placement)
 
 
 def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, grip_face: int,
-            clamped_faces=()) -> PlanResult:
+            clamped_faces=(), placement: dict | None = None) -> PlanResult:
     """Speeds, blends, timing and joint-speed limits for the waypoint list; builds the Toolpath."""
     p = limited_params(opt.params, cell.limits)
     n = len(targets)
@@ -344,6 +346,7 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
                  "grip_dwell_s": p.grip_dwell, "release_dwell_s": p.release_dwell, "face": int(grip_face)},
         "cycle_time_s": ct.total,
         "holds": holds_record(ops, grip_face, clamped_faces),
+        **({"placement": placement} if placement is not None else {}),
         "checks": {"branch": branch, "max_joint_step_rad": max_step, "max_fold_joint_step_rad": max_fold_step,
                    "joint_speed_ratio": ratio,
                    "min_singularity": min_sing, "fk_tolerance_m": K.IK_TOL_POS},
@@ -355,7 +358,7 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
 
 
 def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: PlanOptions = PlanOptions(),
-               source: dict | None = None, clamped_faces=()) -> PlanResult:
+               source: dict | None = None, clamped_faces=(), placement: dict | None = None) -> PlanResult:
     """Plan for a panel's middle-row frames (`fabkit.frames.FaceFrames`).
 
     With `grip_face` None the face is chosen automatically: faces that move (not the clamped
@@ -380,7 +383,7 @@ def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: Pla
         try:
             res = plan_toolpath(cell, frames.of_face(face), options=options,
                                 source={**(source or {}), "grip_face": face}, grip_face=face,
-                                clamped_faces=clamped_faces)
+                                clamped_faces=clamped_faces, placement=placement)
             return replace(res, tried=tuple(tried))
         except PlanningError as exc:
             tried.append((face, exc))

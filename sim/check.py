@@ -170,6 +170,7 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
     else:
         tp, base_dir = Toolpath.load(toolpath), Path(toolpath).parent
     sha = tp.sha256
+    cell = _placed(tp, cell)
     prog = program_from_toolpath(tp, cell, sha256=sha)
     panel, fold_path, fold_sha = (load_source_panel(tp, cell, fold, base_dir=base_dir, thickness=thickness)
                                   if use_panel else (None, None, None))
@@ -185,6 +186,18 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
     return ToolpathCheck(report=report, dense=dense, program=prog, panel=panel, fold_path=fold_path)
 
 
+def _placed(tp, cell):
+    """The cell with the panel where the toolpath was planned: its `placement` record
+    (`robot.panel_placement`), else the cell's fixture."""
+    from fabkit.errors import InputError
+    from robot.panel_placement import placed_cell, placement_of
+
+    try:
+        return placed_cell(cell, placement_of(tp.extra))
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+
+
 def _with_panel_checks(report: CheckReport, tp, prog: Program, cell, fold_path: Path | None,
                        thickness: float | None) -> CheckReport:
     """The report with the checks of the panel itself added: its holds (`sim.check_holds`) and
@@ -193,14 +206,15 @@ def _with_panel_checks(report: CheckReport, tp, prog: Program, cell, fold_path: 
         return replace(report, notes=report.notes + ("no panel: the holds and the panel's own collisions were not "
                                                      "checked",))
     from fabkit.io.fold import load_fold
-    from sim.check_holds import check_holds
+    from sim.check_holds import check_holds, clamp_problems
     from sim.check_panel_collisions import check_panel_collisions_of_fold
 
     model = load_fold(fold_path)
     holds = check_holds(tp, model, prog.states, source=str(fold_path))
     panel = check_panel_collisions_of_fold(model, cell, prog.states, holds.record["clamped_faces"],
                                            thickness=thickness)
-    problems = tuple(sorted(report.problems + holds.problems + panel.problems,
+    problems = tuple(sorted(report.problems + holds.problems + panel.problems +
+                            clamp_problems(model, cell, holds.record["clamped_faces"], len(tp)),
                             key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
     return replace(report, problems=problems, ok=not problems, holds=holds.record,
                    panel_collisions=panel.record, notes=report.notes + holds.notes)

@@ -25,11 +25,12 @@ import numpy as np
 from fabkit.errors import InputError
 from sim.problems import Problem
 
-__all__ = ["HoldsCheck", "check_holds", "CLAMP_MOTION_TOL"]
+__all__ = ["HoldsCheck", "check_holds", "clamp_problems", "CLAMP_MOTION_TOL"]
 
-#: A clamped face may move this much [m] between fold states: refold fixes one triangle of it, and
+#: A clamped face may move this much [m] between fold states (well inside a jaw's compliance): refold
+#: fixes one triangle of it, and
 #: the other triangles of a quad that is not exactly planar turn about the diagonal by round-off.
-CLAMP_MOTION_TOL = 1e-5
+CLAMP_MOTION_TOL = 1e-4
 
 
 @dataclass(frozen=True)
@@ -133,3 +134,21 @@ def check_holds(tp, fold_model, states, *, source: str | None = None) -> HoldsCh
                                     detail=f"{where}, held faces {list(hold)}: {msg}"))
     out["ok"] = not problems
     return HoldsCheck(not problems, out, tuple(problems), tuple(notes))
+
+
+def clamp_problems(fold_model, cell, clamped_faces, n_waypoints: int) -> tuple[Problem, ...]:
+    """Does the cell's clamp footprint lie on the clamped face, with the panel where `cell.fixture`
+    puts it? One problem (kind "holds", subject "clamp") when it leaves the face or its plane; none
+    for a cell without a clamp (nothing to compare)."""
+    from fabkit.placement import check_clamp_footprint
+    from robot.panel_placement import clamped_face_ring
+
+    if getattr(cell, "clamp", None) is None or not clamped_faces:
+        return ()
+    face = int(clamped_faces[0])
+    ring = clamped_face_ring(fold_model, face)
+    pts = np.column_stack([ring, np.zeros(len(ring))])
+    res = check_clamp_footprint(pts, np.arange(len(ring)), face, cell.fixture, cell.clamp.pose, cell.clamp.footprint)
+    return tuple(Problem(waypoint=0, kind="holds", subject="clamp", last_waypoint=n_waypoints - 1,
+                         value=res.outside_m, detail=f"{msg}: the clamp does not hold the face the fold states fix")
+                 for msg in res.problems)

@@ -109,6 +109,7 @@ def run(args) -> int:
     from robot.cell import load_cell
     from robot.motion import MotionParams
     from robot.holds_record import clamped_faces_of
+    from robot.panel_placement import placed_cell, placement_for
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from robot.urscript import PROGRESS_REGISTER, write_urscript
     from sim.panel import check_fold_coordinates
@@ -140,8 +141,9 @@ def run(args) -> int:
               "states": int(frames.n_states), "middle_row": frames.faces.tolist()}
     with progress(args, "planning", total=None):
         try:
-            res = plan_panel(cell, frames, grip_face=args.grip_face, options=options, source=source,
-                             clamped_faces=clamped_faces_of(model))
+            placement = placement_for(cell, model)   # the clamped face on the cell's clamp
+            res = plan_panel(placed_cell(cell, placement), frames, grip_face=args.grip_face, options=options,
+                             source=source, clamped_faces=clamped_faces_of(model), placement=placement)
         except PlanningError as exc:
             print(f"fabkit toolpath: {args.fold}: {exc}", file=sys.stderr)
             write_report(args, {**report, "ok": False, "problems": [exc.as_problem()]})
