@@ -2,7 +2,7 @@
 
 The model is refold's (`fabkit.refold`): triangles are rigid, every interior triangle edge is a
 hinge with its fold angle as the variable, and around every interior vertex the hinge rotations
-compose to the identity (loop closure). Diagonals of planar quads are locked, as refold locks them
+compose to the identity (loop closure). Diagonals of planar quads (bent less than `PLANAR_QUAD_HOLD_ANGLE`) are locked
 (the quads are rigid plates), and so are rulings that stay flat in the target (regions the fold
 never bends; an elastic sheet can still sag there, which this model does not cover); `locked` hinges (creases already set, a jig) are locked as well.
 Holding a face fixes it in space. Two tests, both per fold state:
@@ -47,7 +47,7 @@ from fabkit.refold.kinematics import build_vertex_loops, loop_closure
 
 __all__ = ["HoldModel", "HoldReport", "SecondState", "crease_rows", "hold_analysis", "holds_along", "second_state",
            "hold_model_from_fold", "RANK_TOL",
-           "FLAT_STATE_ANGLE", "MOTION_TOL", "PLANAR_DIAGONAL_ANGLE"]
+           "FLAT_STATE_ANGLE", "MOTION_TOL", "PLANAR_DIAGONAL_ANGLE", "PLANAR_QUAD_HOLD_ANGLE"]
 
 #: Singular values of the dimensionless hold matrix at or below this count as zero (module docstring).
 RANK_TOL = 1e-8
@@ -55,9 +55,12 @@ RANK_TOL = 1e-8
 FLAT_STATE_ANGLE = 1e-6
 #: A hinge moves in a free motion when its component in the orthonormal null space exceeds this.
 MOTION_TOL = 1e-6
-#: Diagonals whose target angles are all below this [rad] are locked (refold's PLANAR_QUAD_ANGLE), and
-#: rulings whose target angle is below it (flat regions).
+#: Rulings whose target angle is below this [rad] are locked (flat regions; refold's PLANAR_QUAD_ANGLE).
 PLANAR_DIAGONAL_ANGLE = 1e-9
+#: A quad diagonal whose target angle is below this [rad] is locked: the quad is a planar plate (relax
+#: leaves diagonals bent by ~1e-8 rad at its 1e-8 planarity tolerance; 1e-6 rad over a 0.1 m quad
+#: is 0.1 um out of plane, far below any fold).
+PLANAR_QUAD_HOLD_ANGLE = 1e-6
 
 
 def crease_rows(edge_crease: np.ndarray, edge_kind: np.ndarray) -> dict[int, np.ndarray]:
@@ -111,8 +114,8 @@ class HoldModel:
         hinge = kind != "boundary"
         diag = np.flatnonzero(kind == "diagonal")
         lock = set(int(e) for e in locked)
-        if len(diag) and float(np.abs(np.asarray(seq.target_angles)[diag]).max()) <= PLANAR_DIAGONAL_ANGLE:
-            lock |= set(diag.tolist())
+        # each quad planar to well within relax's tolerance is a rigid plate: its diagonal is locked
+        lock |= set(diag[np.abs(np.asarray(seq.target_angles)[diag]) <= PLANAR_QUAD_HOLD_ANGLE].tolist())
         if lock_flat_rulings:
             target = np.abs(np.asarray(seq.target_angles))
             lock |= set(np.flatnonzero((kind == "ruling") & (target <= PLANAR_DIAGONAL_ANGLE)).tolist())

@@ -1,14 +1,17 @@
 """Where the panel sits in the cell: its clamped face on the cell's clamp.
 
-A cell with a `[clamp]` names the jaw's pose and footprint. The panel frame (the frame of the fold
-states, in which the clamped face never moves) is placed so that the clamped face's frame
+A cell with a `[clamp]` names the jaw's pose and footprint. When the cell's `[fixture]` already
+puts the clamp footprint on the clamped face(s), the panel stays where the fixture puts it.
+Otherwise the panel frame (the frame of the fold states, in which the clamped face never moves) is
+placed so that the clamped face's frame
 (`fabkit.placement.clamped_face_frame`: area centroid, principal axis toward the panel's area
 centroid, front normal; from geometry alone, so any vertex or face order gives the same placement)
 lands on the clamp pose. The planner plans in the placed cell and records the placement in
 PATH.json (`placement` {clamped_face, fixture: UR pose panel frame -> world}, inside the
 whole-document hash); the check poses the panel with the recorded fixture and fails when the clamp
 footprint leaves the clamped face. A cell without a clamp, or a FOLD file without a clamped face,
-keeps the cell's `[fixture]`.
+keeps the cell's `[fixture]`. With several clamped faces (a FOLD file naming none: the faces its
+states hold still) the one nearest the panel's area centroid goes on the clamp.
 """
 from __future__ import annotations
 
@@ -16,7 +19,8 @@ from dataclasses import replace
 
 import numpy as np
 
-__all__ = ["placement_for", "placed_cell", "placement_of", "clamped_face_ring"]
+__all__ = ["placement_for", "placed_cell", "placement_of", "clamped_face_ring", "clamped_region_ring",
+           "footprint_check"]
 
 
 def clamped_face_ring(fold_model, face: int) -> np.ndarray:
@@ -36,6 +40,31 @@ def clamped_face_ring(fold_model, face: int) -> np.ndarray:
     ring = np.asarray(shape.exterior.coords)[:-1]
     area = 0.5 * np.sum(ring[:, 0] * np.roll(ring[:, 1], -1) - np.roll(ring[:, 0], -1) * ring[:, 1])
     return ring if area > 0 else ring[::-1]
+
+
+def clamped_region_ring(fold_model, faces) -> np.ndarray:
+    """The outline (k, 2) of the union of the clamped faces `faces` in the flat pattern (the largest
+    piece when they are not connected), counter-clockwise."""
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    shape = unary_union([Polygon(clamped_face_ring(fold_model, int(f))) for f in faces]).buffer(0)
+    if shape.geom_type != "Polygon":
+        shape = max(shape.geoms, key=lambda g: g.area)
+    ring = np.asarray(shape.exterior.coords)[:-1]
+    area = 0.5 * np.sum(ring[:, 0] * np.roll(ring[:, 1], -1) - np.roll(ring[:, 0], -1) * ring[:, 1])
+    return ring if area > 0 else ring[::-1]
+
+
+def footprint_check(fold_model, cell, faces, fixture=None):
+    """`fabkit.placement.ClampCheck` of the cell's clamp footprint on the clamped faces with the panel
+    placed by `fixture` (default the cell's)."""
+    from fabkit.placement import check_clamp_footprint
+
+    ring = clamped_region_ring(fold_model, faces)
+    pts = np.column_stack([ring, np.zeros(len(ring))])
+    fx = cell.fixture if fixture is None else fixture
+    return check_clamp_footprint(pts, np.arange(len(ring)), int(faces[0]), fx, cell.clamp.pose, cell.clamp.footprint)
 
 
 def _area_centroid(fold_model) -> np.ndarray:
@@ -58,12 +87,16 @@ def placement_for(cell, fold_model) -> dict | None:
     if getattr(cell, "clamp", None) is None:
         return None
     clamped = clamped_faces_of(fold_model)
-    if not clamped:
+    if not clamped or footprint_check(fold_model, cell, clamped).ok:
         return None
-    face = int(clamped[0])
-    ring = clamped_face_ring(fold_model, face)
+    centre = _area_centroid(fold_model)
+    rings = {int(f): clamped_face_ring(fold_model, int(f)) for f in clamped}
+    dist = {f: (round(float(np.linalg.norm(r.mean(axis=0) - centre)), 9), *np.round(r.mean(axis=0), 9))
+            for f, r in rings.items()}
+    face = min(rings, key=lambda f: dist[f])
+    ring = rings[face]
     pts = np.column_stack([ring, np.zeros(len(ring))])
-    fixture = place_on_clamp(pts, np.arange(len(ring)), cell.clamp.pose, _area_centroid(fold_model))
+    fixture = place_on_clamp(pts, np.arange(len(ring)), cell.clamp.pose, centre)
     return {"clamped_face": face, "fixture": [float(x) for x in matrix_to_pose(fixture)]}
 
 

@@ -38,7 +38,7 @@ from robot.holds_record import holds_record
 from robot.toolpath import Toolpath, Waypoint
 
 __all__ = ["PlanOptions", "PlanningError", "PlanResult", "grip_offset", "tcp_targets", "plan_toolpath", "plan_panel",
-           "check_toolpath_kinematics"]
+           "grip_order", "check_toolpath_kinematics"]
 
 
 class PlanningError(FabkitError):
@@ -358,40 +358,56 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
 
 
 def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: PlanOptions = PlanOptions(),
-               source: dict | None = None, clamped_faces=(), placement: dict | None = None) -> PlanResult:
+               source: dict | None = None, clamped_faces=(), placement: dict | None = None,
+               accept=None) -> PlanResult:
     """Plan for a panel's middle-row frames (`fabkit.frames.FaceFrames`).
 
     With `grip_face` None the face is chosen automatically: faces that move (not the clamped
-    strip) are tried from the largest motion down (more leverage far from the crease) and the first
-    that plans is used. Raises `InputError` for a grip face not in the middle row, `PlanningError`
-    when no face works (the error of the face that got farthest).
+    strip) are tried from the largest motion down (`grip_order`) and the first that plans is used,
+    or with `accept(PlanResult) -> problem or None` (the checker: `sim.grip_search`) the first that
+    plans and that `accept` passes; when `accept` refuses every face that plans, the first of them
+    is returned (its check will say why). Raises `InputError` for a grip face not in the middle
+    row, `PlanningError` when no face plans (the error of the face that got farthest).
     """
-    faces = [int(f) for f in frames.faces]
-    if grip_face is not None:
-        if int(grip_face) not in faces:
-            raise InputError(f"face {grip_face} is not a middle-row face (middle row: {faces})", source="--grip-face")
-        order = [int(grip_face)]
-    else:
-        C = frames.frames[:, :, :3, 3]
-        Z = frames.frames[:, :, :3, 2]
-        turn = np.arccos(np.clip(np.einsum("ski,ki->sk", Z, Z[0]), -1.0, 1.0)).max(axis=0)
-        motion = np.linalg.norm(C - C[0], axis=-1).max(axis=0) + 1e-6 * turn
-        moving = [faces[k] for k in np.argsort(-motion, kind="stable") if motion[k] > 1e-9]
-        order = moving or faces
-    tried = []
+    order = grip_order(frames, grip_face)
+    tried, refused = [], None
     for face in order:
         try:
             res = plan_toolpath(cell, frames.of_face(face), options=options,
                                 source={**(source or {}), "grip_face": face}, grip_face=face,
                                 clamped_faces=clamped_faces, placement=placement)
-            return replace(res, tried=tuple(tried))
         except PlanningError as exc:
             tried.append((face, exc))
+            continue
+        problem = accept(res) if accept is not None and grip_face is None else None
+        if problem is None:
+            return replace(res, tried=tuple(tried))
+        tried.append((face, problem))
+        refused = refused or res
+    if refused is not None:
+        return replace(refused, tried=tuple(tried))
     first = max(tried, key=lambda fe: fe[1].waypoint)[1] if len(tried) > 1 else tried[0][1]
     if len(tried) > 1:
         raise PlanningError(first.waypoint, first.op, first.state, first.kind,
                             f"{first.detail} (no middle-row face works: tried {[f for f, _ in tried]})")
     raise first
+
+
+def grip_order(frames, grip_face: int | None = None) -> list[int]:
+    """The grip faces `plan_panel` tries, in order: `grip_face` alone when given (`InputError` if it
+    is not a middle-row face), else the middle-row faces that move, largest motion first (more
+    leverage far from the clamp; the far end of the row first), ties by the face frames' turn."""
+    faces = [int(f) for f in frames.faces]
+    if grip_face is not None:
+        if int(grip_face) not in faces:
+            raise InputError(f"face {grip_face} is not a middle-row face (middle row: {faces})", source="--grip-face")
+        return [int(grip_face)]
+    C = frames.frames[:, :, :3, 3]
+    Z = frames.frames[:, :, :3, 2]
+    turn = np.arccos(np.clip(np.einsum("ski,ki->sk", Z, Z[0]), -1.0, 1.0)).max(axis=0)
+    motion = np.linalg.norm(C - C[0], axis=-1).max(axis=0) + 1e-6 * turn
+    moving = [faces[k] for k in np.argsort(-motion, kind="stable") if motion[k] > 1e-9]
+    return moving or faces
 
 
 def check_toolpath_kinematics(tp: Toolpath, tcp=None) -> dict:

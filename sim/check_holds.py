@@ -137,18 +137,14 @@ def check_holds(tp, fold_model, states, *, source: str | None = None) -> HoldsCh
 
 
 def clamp_problems(fold_model, cell, clamped_faces, n_waypoints: int) -> tuple[Problem, ...]:
-    """Does the cell's clamp footprint lie on the clamped face, with the panel where `cell.fixture`
-    puts it? One problem (kind "holds", subject "clamp") when it leaves the face or its plane; none
+    """Does the cell's clamp footprint lie on the clamped faces, with the panel where `cell.fixture`
+    puts it? One problem (kind "holds", subject "clamp") when it leaves them or their plane; none
     for a cell without a clamp (nothing to compare)."""
-    from fabkit.placement import check_clamp_footprint
-    from robot.panel_placement import clamped_face_ring
+    from robot.panel_placement import footprint_check
 
     if getattr(cell, "clamp", None) is None or not clamped_faces:
         return ()
-    face = int(clamped_faces[0])
-    ring = clamped_face_ring(fold_model, face)
-    pts = np.column_stack([ring, np.zeros(len(ring))])
-    res = check_clamp_footprint(pts, np.arange(len(ring)), face, cell.fixture, cell.clamp.pose, cell.clamp.footprint)
+    res = footprint_check(fold_model, cell, list(clamped_faces))
     return tuple(Problem(waypoint=0, kind="holds", subject="clamp", last_waypoint=n_waypoints - 1,
                          value=res.outside_m, detail=f"{msg}: the clamp does not hold the face the fold states fix")
                  for msg in res.problems)

@@ -110,6 +110,7 @@ def run(args) -> int:
     from robot.motion import MotionParams
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
+    from sim.grip_search import checked_acceptor
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from robot.urscript import PROGRESS_REGISTER, write_urscript
     from sim.panel import check_fold_coordinates
@@ -143,7 +144,8 @@ def run(args) -> int:
         try:
             placement = placement_for(cell, model)   # the clamped face on the cell's clamp
             res = plan_panel(placed_cell(cell, placement), frames, grip_face=args.grip_face, options=options,
-                             source=source, clamped_faces=clamped_faces_of(model), placement=placement)
+                             source=source, clamped_faces=clamped_faces_of(model), placement=placement,
+                             accept=None if compensated is not None else checked_acceptor(cell, args.fold))
         except PlanningError as exc:
             print(f"fabkit toolpath: {args.fold}: {exc}", file=sys.stderr)
             write_report(args, {**report, "ok": False, "problems": [exc.as_problem()]})
