@@ -189,6 +189,7 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
     from sim.grip_search import checked_acceptor
+    from robot.planner import approach_variants
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from sim.panel import check_fold_coordinates
 
@@ -213,7 +214,8 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
         placement = placement_for(cell_obj, model)   # the clamped face on the cell's clamp
         res = plan_panel(placed_cell(cell_obj, placement), frames, grip_face=grip_face, options=options,
                          source=source, clamped_faces=clamped_faces_of(model), placement=placement,
-                         accept=checked_acceptor(cell_obj, fold_file))   # grip faces tried through the check
+                         accept=checked_acceptor(cell_obj, fold_file),   # grip faces tried through the check
+                         variants=approach_variants(options) if approach is None else ())
     except PlanningError as exc:
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),), **common)
     path_file = folder / PATH_NAME

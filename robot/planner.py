@@ -38,7 +38,7 @@ from robot.holds_record import holds_record
 from robot.toolpath import Toolpath, Waypoint
 
 __all__ = ["PlanOptions", "PlanningError", "PlanResult", "grip_offset", "tcp_targets", "plan_toolpath", "plan_panel",
-           "grip_order", "check_toolpath_kinematics"]
+           "grip_order", "approach_variants", "check_toolpath_kinematics"]
 
 
 class PlanningError(FabkitError):
@@ -359,38 +359,48 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
 
 def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: PlanOptions = PlanOptions(),
                source: dict | None = None, clamped_faces=(), placement: dict | None = None,
-               accept=None) -> PlanResult:
+               accept=None, variants=None) -> PlanResult:
     """Plan for a panel's middle-row frames (`fabkit.frames.FaceFrames`).
 
     With `grip_face` None the face is chosen automatically: faces that move (not the clamped
     strip) are tried from the largest motion down (`grip_order`) and the first that plans is used,
     or with `accept(PlanResult) -> problem or None` (the checker: `sim.grip_search`) the first that
     plans and that `accept` passes; when `accept` refuses every face that plans, the first of them
-    is returned (its check will say why). Raises `InputError` for a grip face not in the middle
-    row, `PlanningError` when no face plans (the error of the face that got farthest).
+    is returned (its check will say why). `variants`: further `PlanOptions` tried for each face
+    after `options` (e.g. `approach_variants`), in order. Raises `InputError` for a grip face not
+    in the middle row, `PlanningError` when no face plans (the error of the face that got farthest).
     """
     order = grip_order(frames, grip_face)
     tried, refused = [], None
     for face in order:
-        try:
-            res = plan_toolpath(cell, frames.of_face(face), options=options,
-                                source={**(source or {}), "grip_face": face}, grip_face=face,
-                                clamped_faces=clamped_faces, placement=placement)
-        except PlanningError as exc:
-            tried.append((face, exc))
-            continue
-        problem = accept(res) if accept is not None and grip_face is None else None
-        if problem is None:
-            return replace(res, tried=tuple(tried))
-        tried.append((face, problem))
-        refused = refused or res
+        for opt in (options, *(variants or ())):
+            try:
+                res = plan_toolpath(cell, frames.of_face(face), options=opt,
+                                    source={**(source or {}), "grip_face": face}, grip_face=face,
+                                    clamped_faces=clamped_faces, placement=placement)
+            except PlanningError as exc:
+                tried.append((face, exc))
+                continue
+            problem = accept(res) if accept is not None and grip_face is None else None
+            if problem is None:
+                return replace(res, tried=tuple(tried))
+            tried.append((face, problem))
+            refused = refused or res
     if refused is not None:
         return replace(refused, tried=tuple(tried))
+    tried = [(f, e) for f, e in tried if isinstance(e, PlanningError)]
     first = max(tried, key=lambda fe: fe[1].waypoint)[1] if len(tried) > 1 else tried[0][1]
     if len(tried) > 1:
         raise PlanningError(first.waypoint, first.op, first.state, first.kind,
                             f"{first.detail} (no middle-row face works: tried {[f for f, _ in tried]})")
     raise first
+
+
+def approach_variants(options: PlanOptions) -> tuple[PlanOptions, ...]:
+    """Other approach/retract distances to try when a face does not plan or pass at the given one
+    (a retract line through a near-singularity, the tool retracting into the folded panel)."""
+    d = options.approach_distance
+    return tuple(replace(options, approach_distance=x) for x in (0.6 * d, 1.6 * d))
 
 
 def grip_order(frames, grip_face: int | None = None) -> list[int]:

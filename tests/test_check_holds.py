@@ -19,10 +19,27 @@ CELL = str(Path(__file__).resolve().parent.parent / "cells" / "ur5e_bench.toml")
 
 
 @pytest.fixture(scope="module")
-def trifold_program(tmp_path_factory):
-    """The demo's tri-fold re-planned with one grip on the bench cell (the demo's program)."""
-    folds = fk.refold(fk.unfold(fk.relax(fk.generate("trifold"))), frames=8)
+def trifold_flat():
+    return fk.unfold(fk.relax(fk.generate("trifold")))
+
+
+@pytest.fixture(scope="module")
+def trifold_program(tmp_path_factory, trifold_flat):
+    """The old demo program: the tri-fold clamped on its middle strip, one grip on a wing."""
+    import numpy as np
+
+    data = trifold_flat.mesh.face_data
+    middle = int(np.flatnonzero((np.asarray(data["middle"]) != 0) & (np.asarray(data["strip"]) == 1))[0])
+    folds = fk.refold(trifold_flat, frames=8, fixed_face=middle)
     prog = fk.plan(folds, CELL, workdir=tmp_path_factory.mktemp("tri"))
+    assert prog.ok, prog.problems
+    return prog
+
+
+@pytest.fixture(scope="module")
+def default_trifold(tmp_path_factory, trifold_flat):
+    """The default program: the clamp on one end of the row, the grip on the other."""
+    prog = fk.plan(fk.refold(trifold_flat, frames=8), CELL, workdir=tmp_path_factory.mktemp("tri_default"))
     assert prog.ok, prog.problems
     return prog
 
@@ -59,6 +76,36 @@ def test_check_refuses_the_one_grip_trifold_naming_the_free_crease(trifold_progr
     states = rep["holds"]["states"]
     assert [s["state"] for s in states] == [k / 2 for k in range(15)]
     assert all(not s["ok"] and s["unheld_creases"] for s in states)
+
+
+def test_the_default_trifold_program_holds_every_crease_in_every_state(default_trifold):
+    check = fk.check(default_trifold)
+    assert check.ok, check.problems
+    rep = json.loads(check.check_file.read_text())
+    states = rep["holds"]["states"]
+    assert [s["state"] for s in states] == [k / 2 for k in range(15)]
+    assert all(s["ok"] and s["unheld_creases"] == [] for s in states)
+    folded = [s for s in states if not s["flat"]]
+    assert folded and all(s["nullity"] == 0 and s["sigma_min"] > 1e-4 for s in folded)
+    # clamp on strip 0, grip on strip 2: both ends of the row
+    from fabkit.io.fold import load_fold
+    model = load_fold(default_trifold.fold_file)
+    strip = dict(zip(model.faces_data["polygon"], model.faces_data["strip"]))
+    assert strip[rep["holds"]["clamped_faces"][0]] == 0 and strip[default_trifold.toolpath.grip["face"]] == 2
+    # the panel is placed with its clamped face on the cell's clamp, and the panel hits nothing
+    assert default_trifold.toolpath.extra["placement"]["clamped_face"] == rep["holds"]["clamped_faces"][0]
+    assert rep["panel_collisions"]["ok"] and rep["panel_collisions"]["samples"] > 8
+
+
+def test_two_crease_reflect_panel_is_held_in_every_state(tmp_path):
+    from structure_panels import reflect_tagged
+
+    save_obj(reflect_tagged(2, 60.0), tmp_path / "p.obj")
+    folds = fk.refold(fk.unfold(fk.relax(fk.load(tmp_path / "p.obj"))), frames=5)
+    check = fk.check(fk.plan(folds, CELL, workdir=tmp_path))
+    assert check.ok, check.problems
+    states = check.report.holds["states"]
+    assert len(states) == 9 and all(s["ok"] for s in states)
 
 
 def test_one_crease_panel_is_held_in_every_state(tmp_path):

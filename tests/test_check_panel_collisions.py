@@ -24,7 +24,8 @@ def cell():
 
 
 def _fold_model(flat, target, frames):
-    seq = refold(flat, target, frames=frames, drive="all")
+    middle = int(np.flatnonzero(np.asarray(flat.face_data["strip"]) == np.asarray(flat.face_data["strip"]).max() // 2)[0])
+    seq = refold(flat, target, frames=frames, drive="all", fixed_face=middle)
     return seq, to_fold_model(seq)
 
 
