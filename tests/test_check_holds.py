@@ -134,3 +134,19 @@ def test_toolpath_without_a_holds_record_gets_it_derived(trifold_program):
     rep = check_toolpath(old, load_cell(CELL), fold=trifold_program.fold_file)
     assert not rep.holds["recorded"] and any("records no holds" in n for n in rep.notes)
     assert [p.kind for p in rep.problems if p.kind == "holds"] == ["holds"]
+
+
+def test_permuted_vertices_and_faces_give_the_same_clamp_and_grip_faces():
+    """The clamp (one end of the row) and the grip candidates come from geometry, not from order."""
+    import numpy as np
+    from structure_panels import plain, reflect_tagged, shuffled
+
+    from fabkit.structure import panel_structure
+
+    mesh = plain(reflect_tagged(2, 60.0))
+    ref = panel_structure(mesh)
+    for seed in range(3):
+        perm, _, _ = shuffled(mesh, seed=seed)
+        s = panel_structure(perm)
+        assert np.allclose(perm.face_centroids[s.clamp_face], mesh.face_centroids[ref.clamp_face], atol=1e-12)
+        assert np.allclose(perm.face_centroids[s.grip_faces], mesh.face_centroids[ref.grip_faces], atol=1e-12)
