@@ -47,7 +47,7 @@ from fabkit.refold.kinematics import build_vertex_loops, loop_closure
 
 __all__ = ["HoldModel", "HoldReport", "SecondState", "crease_rows", "hold_analysis", "holds_along", "second_state",
            "hold_model_from_fold", "RANK_TOL",
-           "FLAT_STATE_ANGLE", "MOTION_TOL", "PLANAR_DIAGONAL_ANGLE", "PLANAR_QUAD_HOLD_ANGLE"]
+           "fold_triangles", "FLAT_STATE_ANGLE", "MOTION_TOL", "PLANAR_DIAGONAL_ANGLE", "PLANAR_QUAD_HOLD_ANGLE"]
 
 #: Singular values of the dimensionless hold matrix at or below this count as zero (module docstring).
 RANK_TOL = 1e-8
@@ -212,11 +212,11 @@ def hold_model_from_fold(model, source: str | None = None) -> tuple[HoldModel, n
     from fabkit.errors import InputError
     from fabkit.refold.triangulate import EDGE_KINDS
 
-    if any(len(f) != 3 for f in model.faces_vertices):
-        raise InputError("the hold analysis needs a triangulated FOLD file (as fabkit refold writes it)", source=source)
-    tris = np.array(model.faces_vertices, np.int64)
+    tris, tri_face = fold_triangles(model)
     V = np.asarray(model.vertices_coords, np.float64)
     topo = MeshTopology(tris.ravel(), np.arange(0, 3 * len(tris) + 1, 3), len(V))
+    if len(tris) != len(model.faces_vertices):          # polygons split here: kinds from the geometry
+        return _hold_model_from_geometry(model, topo, tris, V, source, tri_face)
     ids = topo.edge_ids(np.sort(np.asarray(model.edges_vertices), axis=1))
     if np.any(ids < 0) or len(np.unique(ids)) != topo.n_edges:
         raise InputError("edges_vertices do not match the faces' edges", source=source)
@@ -243,7 +243,21 @@ def hold_model_from_fold(model, source: str | None = None) -> tuple[HoldModel, n
     return HoldModel.from_sequence(seq), angles
 
 
-def _hold_model_from_geometry(model, topo, tris, V, source) -> tuple[HoldModel, np.ndarray]:
+def fold_triangles(model) -> tuple[np.ndarray, np.ndarray]:
+    """`(tris (T, 3), tri_face (T,))` of a FOLD model: its triangles with their polygon ids
+    (`faces_fabkit:polygon`, else the face index); polygons split into fans from their first vertex
+    (planar convex faces, as a panel's quads are)."""
+    poly = np.asarray(model.faces_data.get("polygon", np.arange(len(model.faces_vertices))), np.int64)
+    tris, owner = [], []
+    for f, face in enumerate(model.faces_vertices):
+        face = [int(v) for v in face]
+        for k in range(1, len(face) - 1):
+            tris.append((face[0], face[k], face[k + 1]))
+            owner.append(int(poly[f]))
+    return np.array(tris, np.int64).reshape(-1, 3), np.array(owner, np.int64)
+
+
+def _hold_model_from_geometry(model, topo, tris, V, source, tri_face=None) -> tuple[HoldModel, np.ndarray]:
     """The hold model of a triangulated FOLD file without refold's hinge kinds, from its geometry:
     the fold angle of every edge in every frame (signed dihedral, valley +), edges inside one
     polygon (`faces_fabkit:polygon`) are diagonals, edges between faces of different strips
@@ -252,11 +266,12 @@ def _hold_model_from_geometry(model, topo, tris, V, source) -> tuple[HoldModel, 
     from types import SimpleNamespace
 
     from fabkit.measures import dihedral_angles
+    from fabkit.mesh import PolyMesh
 
-    frames = range(model.n_frames) if model.n_frames else [None]
+    frames = [np.asarray(f.vertices_coords, np.float64) for f in model.frames] or [V]
     angles = []
-    for i in frames:
-        mesh = model.mesh(validate=False) if i is None else model.frame_mesh(i)
+    for X in frames:
+        mesh = PolyMesh(X, tris)
         a = np.zeros(topo.n_edges)
         a[topo.edge_ids(mesh.edges)] = dihedral_angles(mesh)
         angles.append(a)
@@ -266,19 +281,23 @@ def _hold_model_from_geometry(model, topo, tris, V, source) -> tuple[HoldModel, 
     inner = np.zeros(topo.n_edges, bool)
     inner[topo.interior_edges] = True
     a, b = np.maximum(ef[:, 0], 0), np.maximum(ef[:, 1], 0)
-    poly = np.asarray(model.faces_data.get("polygon", np.arange(len(tris))), np.int64)
+    poly = np.asarray(model.faces_data.get("polygon", np.arange(len(tris))), np.int64) if tri_face is None \
+        else np.asarray(tri_face, np.int64)
     kind = np.where(inner, "ruling", "boundary").astype("<U8")
     kind[inner & (poly[a] == poly[b])] = "diagonal"
     crease = np.full(topo.n_edges, -1, np.int64)
     between = inner & (poly[a] != poly[b])
     if "strip" in model.faces_data:
         strip = np.asarray(model.faces_data["strip"], np.int64)
+        if tri_face is not None:    # per FOLD face -> per triangle of its fan
+            strip = np.repeat(strip, [len(f) - 2 for f in model.faces_vertices])
         is_crease = between & (strip[a] != strip[b]) & folds
         crease[is_crease] = np.minimum(strip[a], strip[b])[is_crease]
     else:
         mv = np.isin(np.asarray(model.edges_assignment), ["M", "V"])
+        ids = topo.edge_ids(np.sort(np.asarray(model.edges_vertices), axis=1))
         is_crease = np.zeros(topo.n_edges, bool)
-        is_crease[topo.edge_ids(np.sort(np.asarray(model.edges_vertices), axis=1))] = mv
+        is_crease[ids[ids >= 0]] = mv[ids >= 0]
         is_crease &= between
     kind[is_crease] = "crease"
     used = np.unique(tris)

@@ -29,9 +29,11 @@ def clamped_face_ring(fold_model, face: int) -> np.ndarray:
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
+    from fabkit.holds import fold_triangles
+
     V = np.asarray(fold_model.vertices_coords, np.float64)
-    poly = np.asarray(fold_model.faces_data.get("polygon", np.arange(len(fold_model.faces_vertices))), np.int64)
-    tris = [np.asarray(f, np.int64) for f, p in zip(fold_model.faces_vertices, poly) if p == face]
+    all_tris, poly = fold_triangles(fold_model)
+    tris = [t for t, p in zip(all_tris, poly) if p == face]
     if not tris:
         raise ValueError(f"face {face} is not a face of the panel")
     shape = unary_union([Polygon(V[t][:, :2]) for t in tris]).buffer(0)
@@ -68,10 +70,10 @@ def footprint_check(fold_model, cell, faces, fixture=None):
 
 
 def _area_centroid(fold_model) -> np.ndarray:
+    from fabkit.holds import fold_triangles
+
     V = np.asarray(fold_model.vertices_coords, np.float64)[:, :2]
-    T = np.asarray([f for f in fold_model.faces_vertices if len(f) == 3], np.int64)
-    if len(T) == 0:
-        return V.mean(axis=0)
+    T, _ = fold_triangles(fold_model)
     a, b, c = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
     area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
     return ((a + b + c) / 3 * area[:, None]).sum(axis=0) / area.sum()

@@ -54,8 +54,9 @@ def check_panel_collisions_of_fold(fold_model, cell, states, clamped_faces=(), *
     from sim.panel import DEFAULT_THICKNESS
     from sim.panel_collision import check_panel_collisions, collider_for_sequence
 
-    tris = np.asarray(fold_model.faces_vertices, np.int64)
-    tri_face = np.asarray(fold_model.faces_data.get("polygon", np.arange(len(tris))), np.int64)
+    from fabkit.holds import fold_triangles
+
+    tris, tri_face = fold_triangles(fold_model)
     positions = fold_positions(fold_model)
     clamp_obstacle = cell.clamp.obstacle if getattr(cell, "clamp", None) is not None else ""
     exempt_obstacles = list(cell.obstacles)
