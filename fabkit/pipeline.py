@@ -189,7 +189,7 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
     from sim.grip_search import checked_acceptor
-    from robot.planner import approach_variants
+    from robot.grip_choice import approach_variants
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from sim.panel import check_fold_coordinates
 

@@ -34,6 +34,7 @@ from robot.cell import Cell, matrix_to_pose, pose_to_matrix
 from robot.motion import (MotionParams, blend_overlaps, blend_radii, cycle_time, joint_speed_estimates,
                           limited_params)
 from robot.blends import cap_blend_radii
+from robot.grip_choice import approach_variants, grip_order
 from robot.holds_record import holds_record
 from robot.toolpath import Toolpath, Waypoint
 
@@ -394,30 +395,6 @@ def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: Pla
         raise PlanningError(first.waypoint, first.op, first.state, first.kind,
                             f"{first.detail} (no middle-row face works: tried {[f for f, _ in tried]})")
     raise first
-
-
-def approach_variants(options: PlanOptions) -> tuple[PlanOptions, ...]:
-    """Other approach/retract distances to try when a face does not plan or pass at the given one
-    (a retract line through a near-singularity, the tool retracting into the folded panel)."""
-    d = options.approach_distance
-    return tuple(replace(options, approach_distance=x) for x in (0.6 * d, 1.6 * d))
-
-
-def grip_order(frames, grip_face: int | None = None) -> list[int]:
-    """The grip faces `plan_panel` tries, in order: `grip_face` alone when given (`InputError` if it
-    is not a middle-row face), else the middle-row faces that move, largest motion first (more
-    leverage far from the clamp; the far end of the row first), ties by the face frames' turn."""
-    faces = [int(f) for f in frames.faces]
-    if grip_face is not None:
-        if int(grip_face) not in faces:
-            raise InputError(f"face {grip_face} is not a middle-row face (middle row: {faces})", source="--grip-face")
-        return [int(grip_face)]
-    C = frames.frames[:, :, :3, 3]
-    Z = frames.frames[:, :, :3, 2]
-    turn = np.arccos(np.clip(np.einsum("ski,ki->sk", Z, Z[0]), -1.0, 1.0)).max(axis=0)
-    motion = np.linalg.norm(C - C[0], axis=-1).max(axis=0) + 1e-6 * turn
-    moving = [faces[k] for k in np.argsort(-motion, kind="stable") if motion[k] > 1e-9]
-    return moving or faces
 
 
 def check_toolpath_kinematics(tp: Toolpath, tcp=None) -> dict:

@@ -112,7 +112,7 @@ def run(args) -> int:
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
     from sim.grip_search import checked_acceptor
-    from robot.planner import approach_variants
+    from robot.grip_choice import approach_variants
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from robot.urscript import PROGRESS_REGISTER, write_urscript
     from sim.panel import check_fold_coordinates
