@@ -2,7 +2,7 @@
 
 The model is refold's (`fabkit.refold`): triangles are rigid, every interior triangle edge is a
 hinge with its fold angle as the variable, and around every interior vertex the hinge rotations
-compose to the identity (loop closure). Diagonals of planar quads are locked, as refold locks them
+compose to the identity (loop closure). Diagonals of planar quads (bent less than `PLANAR_QUAD_HOLD_ANGLE`) are locked
 (the quads are rigid plates), and so are rulings that stay flat in the target (regions the fold
 never bends; an elastic sheet can still sag there, which this model does not cover); `locked` hinges (creases already set, a jig) are locked as well.
 Holding a face fixes it in space. Two tests, both per fold state:
@@ -47,7 +47,7 @@ from fabkit.refold.kinematics import build_vertex_loops, loop_closure
 
 __all__ = ["HoldModel", "HoldReport", "SecondState", "crease_rows", "hold_analysis", "holds_along", "second_state",
            "hold_model_from_fold", "RANK_TOL",
-           "FLAT_STATE_ANGLE", "MOTION_TOL", "PLANAR_DIAGONAL_ANGLE"]
+           "fold_triangles", "FLAT_STATE_ANGLE", "MOTION_TOL", "PLANAR_DIAGONAL_ANGLE", "PLANAR_QUAD_HOLD_ANGLE"]
 
 #: Singular values of the dimensionless hold matrix at or below this count as zero (module docstring).
 RANK_TOL = 1e-8
@@ -55,9 +55,12 @@ RANK_TOL = 1e-8
 FLAT_STATE_ANGLE = 1e-6
 #: A hinge moves in a free motion when its component in the orthonormal null space exceeds this.
 MOTION_TOL = 1e-6
-#: Diagonals whose target angles are all below this [rad] are locked (refold's PLANAR_QUAD_ANGLE), and
-#: rulings whose target angle is below it (flat regions).
+#: Rulings whose target angle is below this [rad] are locked (flat regions; refold's PLANAR_QUAD_ANGLE).
 PLANAR_DIAGONAL_ANGLE = 1e-9
+#: A quad diagonal whose target angle is below this [rad] is locked: the quad is a planar plate (relax
+#: leaves diagonals bent by ~1e-8 rad at its 1e-8 planarity tolerance; 1e-6 rad over a 0.1 m quad
+#: is 0.1 um out of plane, far below any fold).
+PLANAR_QUAD_HOLD_ANGLE = 1e-6
 
 
 def crease_rows(edge_crease: np.ndarray, edge_kind: np.ndarray) -> dict[int, np.ndarray]:
@@ -111,8 +114,8 @@ class HoldModel:
         hinge = kind != "boundary"
         diag = np.flatnonzero(kind == "diagonal")
         lock = set(int(e) for e in locked)
-        if len(diag) and float(np.abs(np.asarray(seq.target_angles)[diag]).max()) <= PLANAR_DIAGONAL_ANGLE:
-            lock |= set(diag.tolist())
+        # each quad planar to well within relax's tolerance is a rigid plate: its diagonal is locked
+        lock |= set(diag[np.abs(np.asarray(seq.target_angles)[diag]) <= PLANAR_QUAD_HOLD_ANGLE].tolist())
         if lock_flat_rulings:
             target = np.abs(np.asarray(seq.target_angles))
             lock |= set(np.flatnonzero((kind == "ruling") & (target <= PLANAR_DIAGONAL_ANGLE)).tolist())
@@ -209,12 +212,11 @@ def hold_model_from_fold(model, source: str | None = None) -> tuple[HoldModel, n
     from fabkit.errors import InputError
     from fabkit.refold.triangulate import EDGE_KINDS
 
-    if any(len(f) != 3 for f in model.faces_vertices) or "kind" not in model.edges_data:
-        raise InputError("the hold analysis needs a FOLD file from fabkit refold (triangles with "
-                         "edges_fabkit:kind)", source=source)
-    tris = np.array(model.faces_vertices, np.int64)
+    tris, tri_face = fold_triangles(model)
     V = np.asarray(model.vertices_coords, np.float64)
     topo = MeshTopology(tris.ravel(), np.arange(0, 3 * len(tris) + 1, 3), len(V))
+    if len(tris) != len(model.faces_vertices):          # polygons split here: kinds from the geometry
+        return _hold_model_from_geometry(model, topo, tris, V, source, tri_face)
     ids = topo.edge_ids(np.sort(np.asarray(model.edges_vertices), axis=1))
     if np.any(ids < 0) or len(np.unique(ids)) != topo.n_edges:
         raise InputError("edges_vertices do not match the faces' edges", source=source)
@@ -224,6 +226,8 @@ def hold_model_from_fold(model, source: str | None = None) -> tuple[HoldModel, n
         out[ids] = values
         return out
 
+    if "kind" not in model.edges_data:
+        return _hold_model_from_geometry(model, topo, tris, V, source)
     kind = np.array(EDGE_KINDS)[per_edge(np.asarray(model.edges_data["kind"], np.int64), 0)]
     crease = per_edge(np.asarray(model.edges_data.get("crease", np.full(model.n_edges, -1)), np.int64), -1)
     frames = model.frames or ()
@@ -235,6 +239,71 @@ def hold_model_from_fold(model, source: str | None = None) -> tuple[HoldModel, n
         target_angles=per_edge(np.asarray(model.edges_fold_angle, np.float64), 0.0),
         tri_face=np.asarray(model.faces_data.get("polygon", np.arange(len(tris))), np.int64),
         fixed_triangle=int(model.file_data.get("fabkit:fixed_triangle", 0)),
+        panel_size=float(np.linalg.norm(np.ptp(V[used], axis=0))))
+    return HoldModel.from_sequence(seq), angles
+
+
+def fold_triangles(model) -> tuple[np.ndarray, np.ndarray]:
+    """`(tris (T, 3), tri_face (T,))` of a FOLD model: its triangles with their polygon ids
+    (`faces_fabkit:polygon`, else the face index); polygons split into fans from their first vertex
+    (planar convex faces, as a panel's quads are)."""
+    poly = np.asarray(model.faces_data.get("polygon", np.arange(len(model.faces_vertices))), np.int64)
+    tris, owner = [], []
+    for f, face in enumerate(model.faces_vertices):
+        face = [int(v) for v in face]
+        for k in range(1, len(face) - 1):
+            tris.append((face[0], face[k], face[k + 1]))
+            owner.append(int(poly[f]))
+    return np.array(tris, np.int64).reshape(-1, 3), np.array(owner, np.int64)
+
+
+def _hold_model_from_geometry(model, topo, tris, V, source, tri_face=None) -> tuple[HoldModel, np.ndarray]:
+    """The hold model of a triangulated FOLD file without refold's hinge kinds, from its geometry:
+    the fold angle of every edge in every frame (signed dihedral, valley +), edges inside one
+    polygon (`faces_fabkit:polygon`) are diagonals, edges between faces of different strips
+    (`faces_fabkit:strip`) that fold in some frame are creases of the row min(strip) (with no strip
+    tags: edges assigned M or V), every other interior edge is a ruling (a flat one is locked)."""
+    from types import SimpleNamespace
+
+    from fabkit.measures import dihedral_angles
+    from fabkit.mesh import PolyMesh
+
+    frames = [np.asarray(f.vertices_coords, np.float64) for f in model.frames] or [V]
+    angles = []
+    for X in frames:
+        mesh = PolyMesh(X, tris)
+        a = np.zeros(topo.n_edges)
+        a[topo.edge_ids(mesh.edges)] = dihedral_angles(mesh)
+        angles.append(a)
+    angles = np.stack(angles)
+    folds = np.abs(angles).max(axis=0) > 1e-6
+    ef = topo.edge_faces
+    inner = np.zeros(topo.n_edges, bool)
+    inner[topo.interior_edges] = True
+    a, b = np.maximum(ef[:, 0], 0), np.maximum(ef[:, 1], 0)
+    poly = np.asarray(model.faces_data.get("polygon", np.arange(len(tris))), np.int64) if tri_face is None \
+        else np.asarray(tri_face, np.int64)
+    kind = np.where(inner, "ruling", "boundary").astype("<U8")
+    kind[inner & (poly[a] == poly[b])] = "diagonal"
+    crease = np.full(topo.n_edges, -1, np.int64)
+    between = inner & (poly[a] != poly[b])
+    if "strip" in model.faces_data:
+        strip = np.asarray(model.faces_data["strip"], np.int64)
+        if tri_face is not None:    # per FOLD face -> per triangle of its fan
+            strip = np.repeat(strip, [len(f) - 2 for f in model.faces_vertices])
+        is_crease = between & (strip[a] != strip[b]) & folds
+        crease[is_crease] = np.minimum(strip[a], strip[b])[is_crease]
+    else:
+        mv = np.isin(np.asarray(model.edges_assignment), ["M", "V"])
+        ids = topo.edge_ids(np.sort(np.asarray(model.edges_vertices), axis=1))
+        is_crease = np.zeros(topo.n_edges, bool)
+        is_crease[ids[ids >= 0]] = mv[ids >= 0]
+        is_crease &= between
+    kind[is_crease] = "crease"
+    used = np.unique(tris)
+    seq = SimpleNamespace(
+        tris=tris, flat_vertices=V, edges=topo.edges, edge_kind=kind, edge_crease=crease, target_angles=angles[-1],
+        tri_face=poly, fixed_triangle=int(model.file_data.get("fabkit:fixed_triangle", 0)),
         panel_size=float(np.linalg.norm(np.ptp(V[used], axis=0))))
     return HoldModel.from_sequence(seq), angles
 

@@ -33,10 +33,13 @@ from robot import kinematics as K
 from robot.cell import Cell, matrix_to_pose, pose_to_matrix
 from robot.motion import (MotionParams, blend_overlaps, blend_radii, cycle_time, joint_speed_estimates,
                           limited_params)
+from robot.blends import cap_blend_radii
+from robot.grip_choice import approach_variants, grip_order
+from robot.holds_record import holds_record
 from robot.toolpath import Toolpath, Waypoint
 
 __all__ = ["PlanOptions", "PlanningError", "PlanResult", "grip_offset", "tcp_targets", "plan_toolpath", "plan_panel",
-           "check_toolpath_kinematics"]
+           "grip_order", "approach_variants", "check_toolpath_kinematics"]
 
 
 class PlanningError(FabkitError):
@@ -224,8 +227,11 @@ class PlanResult:
 
 
 def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions = PlanOptions(),
-                  source: dict | None = None, grip_face: int = -1) -> PlanResult:
-    """Plan the operations for one grip face's frames `(S, 4, 4)` (panel frame) in `cell`.
+                  source: dict | None = None, grip_face: int = -1, clamped_faces=(),
+                  placement: dict | None = None) -> PlanResult:
+    """Plan the operations for one grip face's frames `(S, 4, 4)` (panel frame) in `cell`;
+    `clamped_faces` (polygon ids) are recorded with the grip face in PATH.json's `holds`;
+    `placement` (`robot.panel_placement`, already applied to `cell`) is recorded as it is.
 
     Raises `PlanningError` naming the first waypoint that no branch can execute.
     """
@@ -284,10 +290,11 @@ def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions =
     home_t = _Target(T_home, "movej", "home", 0, q_home)
     end_t = _Target(T_home, "movej", "home", S - 1, q_home)
     targets = [home_t] + best + [end_t]
-    return _finish(cell, targets, options, source or {}, grip_face)
+    return _finish(cell, targets, options, source or {}, grip_face, clamped_faces, placement)
 
 
-def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, grip_face: int) -> PlanResult:
+def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, grip_face: int,
+            clamped_faces=(), placement: dict | None = None) -> PlanResult:
     """Speeds, blends, timing and joint-speed limits for the waypoint list; builds the Toolpath."""
     p = limited_params(opt.params, cell.limits)
     n = len(targets)
@@ -303,7 +310,7 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
     # stops: every movej, grip/release/retract, a change of move kind, and the last waypoint
     stops = np.array([m == "movej" or o in ("grip", "release", "retract", "home") for m, o in zip(moves, ops)])
     stops[:-1] |= moves[1:] != moves[:-1]
-    r = blend_radii(P, stops, p.blend_max)
+    r = cap_blend_radii(P, blend_radii(P, stops, p.blend_max))  # neighbours <= 90 % of their segment
     dwell = np.array([p.grip_dwell if o == "grip" else p.release_dwell if o == "release" else 0.0 for o in ops])
     limit = np.asarray(cell.limits.joint_speed)
     # lower movel speeds where the joints would exceed their limits (near singularities)
@@ -339,6 +346,8 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
         "grip": {"output": cell.tool.grip_output, "kind": cell.tool.grip_output_kind,
                  "grip_dwell_s": p.grip_dwell, "release_dwell_s": p.release_dwell, "face": int(grip_face)},
         "cycle_time_s": ct.total,
+        "holds": holds_record(ops, grip_face, clamped_faces),
+        **({"placement": placement} if placement is not None else {}),
         "checks": {"branch": branch, "max_joint_step_rad": max_step, "max_fold_joint_step_rad": max_fold_step,
                    "joint_speed_ratio": ratio,
                    "min_singularity": min_sing, "fk_tolerance_m": K.IK_TOL_POS},
@@ -350,34 +359,37 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
 
 
 def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: PlanOptions = PlanOptions(),
-               source: dict | None = None) -> PlanResult:
+               source: dict | None = None, clamped_faces=(), placement: dict | None = None,
+               accept=None, variants=None) -> PlanResult:
     """Plan for a panel's middle-row frames (`fabkit.frames.FaceFrames`).
 
     With `grip_face` None the face is chosen automatically: faces that move (not the clamped
-    strip) are tried from the largest motion down (more leverage far from the crease) and the first
-    that plans is used. Raises `InputError` for a grip face not in the middle row, `PlanningError`
-    when no face works (the error of the face that got farthest).
+    strip) are tried from the largest motion down (`grip_order`) and the first that plans is used,
+    or with `accept(PlanResult) -> problem or None` (the checker: `sim.grip_search`) the first that
+    plans and that `accept` passes; when `accept` refuses every face that plans, the first of them
+    is returned (its check will say why). `variants`: further `PlanOptions` tried for each face
+    after `options` (e.g. `approach_variants`), in order. Raises `InputError` for a grip face not
+    in the middle row, `PlanningError` when no face plans (the error of the face that got farthest).
     """
-    faces = [int(f) for f in frames.faces]
-    if grip_face is not None:
-        if int(grip_face) not in faces:
-            raise InputError(f"face {grip_face} is not a middle-row face (middle row: {faces})", source="--grip-face")
-        order = [int(grip_face)]
-    else:
-        C = frames.frames[:, :, :3, 3]
-        Z = frames.frames[:, :, :3, 2]
-        turn = np.arccos(np.clip(np.einsum("ski,ki->sk", Z, Z[0]), -1.0, 1.0)).max(axis=0)
-        motion = np.linalg.norm(C - C[0], axis=-1).max(axis=0) + 1e-6 * turn
-        moving = [faces[k] for k in np.argsort(-motion, kind="stable") if motion[k] > 1e-9]
-        order = moving or faces
-    tried = []
+    order = grip_order(frames, grip_face)
+    tried, refused = [], None
     for face in order:
-        try:
-            res = plan_toolpath(cell, frames.of_face(face), options=options,
-                                source={**(source or {}), "grip_face": face}, grip_face=face)
-            return replace(res, tried=tuple(tried))
-        except PlanningError as exc:
-            tried.append((face, exc))
+        for opt in (options, *(variants or ())):
+            try:
+                res = plan_toolpath(cell, frames.of_face(face), options=opt,
+                                    source={**(source or {}), "grip_face": face}, grip_face=face,
+                                    clamped_faces=clamped_faces, placement=placement)
+            except PlanningError as exc:
+                tried.append((face, exc))
+                continue
+            problem = accept(res) if accept is not None and grip_face is None else None
+            if problem is None:
+                return replace(res, tried=tuple(tried))
+            tried.append((face, problem))
+            refused = refused or res
+    if refused is not None:
+        return replace(refused, tried=tuple(tried))
+    tried = [(f, e) for f, e in tried if isinstance(e, PlanningError)]
     first = max(tried, key=lambda fe: fe[1].waypoint)[1] if len(tried) > 1 else tried[0][1]
     if len(tried) > 1:
         raise PlanningError(first.waypoint, first.op, first.state, first.kind,

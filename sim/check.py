@@ -66,6 +66,8 @@ class CheckReport:
     cell_sha256: str = ""
     fold: dict | None = None
     loads: dict | None = None  # the sheet's fold-load verdicts per state (`sim.check_loads`)
+    holds: dict | None = None            # sim.check_holds: per-state hold proofs (None: no panel)
+    panel_collisions: dict | None = None  # sim.check_panel_collisions (None: no panel)
 
     def to_json(self) -> dict:
         return {
@@ -89,6 +91,8 @@ class CheckReport:
             "notes": list(self.notes),
             "along_path": self.along_path,
             "loads": self.loads,
+            "holds": self.holds,
+            "panel_collisions": self.panel_collisions,
         }
 
 
@@ -182,6 +186,7 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
     from sim.check_loads import check_sheet_loads, fold_states_model, resolve_sheet, slab_offset
 
     sha = tp.sha256
+    cell = _placed(tp, cell)
     prog = program_from_toolpath(tp, cell, sha256=sha)
     spec, recorded = resolve_sheet(tp, sheet)
     model, fold_path, fold_sha = (load_source_fold(tp, fold, base_dir=base_dir) if use_panel or spec is not None
@@ -190,9 +195,9 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
         raise InputError("the toolpath folds a sheet: its fold loads need the FOLD file it was planned from "
                          "(pass --fold)", source="PATH.json")
     panel = None
+    t = thickness or (spec.thickness if spec is not None else None)
     if use_panel and model is not None:
         states = fold_states_model(model, spec, recorded, str(fold_path))
-        t = thickness or (spec.thickness if spec is not None else None)
         panel = source_panel(tp, cell, states, fold_path, t, slab_offset(tp, spec, t))
     report, dense = check_program(prog, cell, panel, settings, on_progress=on_progress)
     if spec is not None:
@@ -207,7 +212,42 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
                   f"checked in {cell.name!r} ({getattr(cell, 'sha256', '')[:12]}…)",)
     report = replace(report, notes=notes,
                      fold=None if fold_path is None else {"path": str(fold_path), "sha256": fold_sha})
+    report = _with_panel_checks(report, tp, prog, cell, model if use_panel else None, fold_path, t)
+
     return ToolpathCheck(report=report, dense=dense, program=prog, panel=panel, fold_path=fold_path)
+
+
+def _placed(tp, cell):
+    """The cell with the panel where the toolpath was planned: its `placement` record
+    (`robot.panel_placement`), else the cell's fixture."""
+    from fabkit.errors import InputError
+    from robot.panel_placement import placed_cell, placement_of
+
+    try:
+        return placed_cell(cell, placement_of(tp.extra))
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+
+
+def _with_panel_checks(report: CheckReport, tp, prog: Program, cell, model, fold_path: Path | None,
+                       thickness: float | None) -> CheckReport:
+    """The report with the checks of the panel itself added (`model`: the verified FOLD file's
+    `FoldModel`, None without a panel): its holds (`sim.check_holds`) and its collisions with the
+    cell and itself (`sim.check_panel_collisions`)."""
+    if model is None:
+        return replace(report, notes=report.notes + ("no panel: the holds and the panel's own collisions were not "
+                                                     "checked",))
+    from sim.check_holds import check_holds, clamp_problems
+    from sim.check_panel_collisions import check_panel_collisions_of_fold
+
+    holds = check_holds(tp, model, prog.states, source=str(fold_path))
+    panel = check_panel_collisions_of_fold(model, cell, prog.states, holds.record["clamped_faces"],
+                                           thickness=thickness)
+    problems = tuple(sorted(report.problems + holds.problems + panel.problems +
+                            clamp_problems(model, cell, holds.record["clamped_faces"], len(tp)),
+                            key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
+    return replace(report, problems=problems, ok=not problems, holds=holds.record,
+                   panel_collisions=panel.record, notes=report.notes + holds.notes)
 
 
 def check_toolpath(toolpath, cell, *, fold: str | Path | None = None, use_panel: bool = True,

@@ -247,10 +247,12 @@ def check_panel_collisions(collider: PanelCollider, step_m: float = STEP_M) -> P
     return PanelCollisionReport(ok=not done, contacts=tuple(done), samples=len(samples), states=collider.panel.n_states)
 
 
-def collider_for_sequence(seq, fixture, obstacles, *, clamp_obstacle: str = "", thickness: float | None = None):
+def collider_for_sequence(seq, fixture, obstacles, *, clamp_obstacle: str = "", thickness: float | None = None,
+                          resting_faces=()):
     """A `PanelCollider` for a `fabkit.refold.FoldSequence` placed by `fixture` (panel frame -> world):
     one piece per polygon (the distinct vertices of its triangles), the sequence's triangles for the
-    self test, and the clamped (fixed) face exempt against `clamp_obstacle`."""
+    self test, and the clamped (fixed) face, and `resting_faces` (polygon ids: faces that never move,
+    lying on the clamp with it), exempt against `clamp_obstacle`."""
     from sim.panel import DEFAULT_THICKNESS, panel_model
 
     tri_face = np.asarray(seq.tri_face, np.int64)
@@ -259,5 +261,7 @@ def collider_for_sequence(seq, fixture, obstacles, *, clamp_obstacle: str = "", 
     panel = panel_model(seq.flat_vertices, faces, seq.positions, fixture,
                         thickness=DEFAULT_THICKNESS if thickness is None else thickness, face_ids=ids)
     piece = np.searchsorted(ids, tri_face)
-    exempt = [(int(np.searchsorted(ids, seq.fixed_face)), clamp_obstacle)] if clamp_obstacle else []
+    rest = {int(seq.fixed_face)} | {int(f) for f in resting_faces}
+    exempt = [(int(np.searchsorted(ids, f)), clamp_obstacle) for f in sorted(rest) if f in set(ids.tolist())] \
+        if clamp_obstacle else []
     return PanelCollider(panel, seq.tris, piece, obstacles, exempt)

@@ -12,7 +12,8 @@ from dataclasses import dataclass, field, replace
 
 __all__ = ["KINDS", "DEG", "Event", "Problem", "merge_events"]
 
-KINDS = ("unreachable", "joint_limit", "singular", "collision", "speed", "clearance", "load")
+KINDS = ("unreachable", "joint_limit", "singular", "collision", "speed", "clearance", "holds", "panel_collision",
+         "load")
 DEG = 180.0 / math.pi
 
 

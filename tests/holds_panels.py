@@ -28,8 +28,12 @@ def trifold_pair():
 
 @functools.lru_cache(maxsize=None)
 def trifold_sequence(frames: int = 12):
+    """The tri-fold refolded with its middle strip's middle-row face clamped (the old demo's clamp)."""
+    import numpy as np
+
     flat, target = trifold_pair()
-    return refold(flat, target, frames=frames)
+    mid = np.flatnonzero((np.asarray(flat.face_data["middle"]) != 0) & (np.asarray(flat.face_data["strip"]) == 1))
+    return refold(flat, target, frames=frames, fixed_face=int(mid[0]))
 
 
 @functools.lru_cache(maxsize=None)

@@ -70,23 +70,3 @@ def test_bad_input():
         cap_blend_radii(P, [0, -1, 0])
     with pytest.raises(ValueError, match="radii for"):
         cap_blend_radii(P, [0, 0])
-
-
-@pytest.mark.slow
-def test_demo_program_radii(tmp_path):
-    """The demo's PATH.json: on 17 fold segments the two radii add up to exactly the segment length."""
-    from robot.cell import pose_to_matrix
-
-    out = tmp_path / "demo"
-    code = subprocess.call([sys.executable, "-m", "fabkit", "demo", "--out", str(out), "--no-render",
-                            "--no-dry-run", "-q"], cwd=ROOT, timeout=300)
-    assert code == 0
-    w = json.loads((out / "path.json").read_text())["waypoints"]
-    P = np.array([pose_to_matrix(x["pose"])[:3, 3] for x in w])
-    r = np.array([x["r"] for x in w])
-    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
-    fold = np.array([x["op"] in ("fold", "release") for x in w])[1:]   # the 20 fold segments
-    exact = np.isclose(r[:-1] + r[1:], seg, rtol=1e-9) & (seg > 0)
-    assert fold.sum() == 20 and exact.sum() == 17 and np.all(fold[exact])
-    c = cap_blend_radii(P, r)
-    assert len(blend_margin_violations(P, c)) == 0 and np.all(c <= r)

@@ -37,7 +37,8 @@ def fabkit(capsys, *args):
 @pytest.fixture(scope="module")
 def job(tmp_path_factory):
     """grid.fold (strip 2 folds up 60 deg) -> `fabkit toolpath` -> `fabkit check`, in a copy of the
-    bench cell; and a colliding program (the far wing of a two-wing fold) with its failed check."""
+    bench cell; and a failing program (the far wing of a two-wing fold: the near wing is held by
+    nothing) with its failed check."""
     d = tmp_path_factory.mktemp("interlock")
     (d / "cell.toml").write_bytes((ROOT / "cells" / "ur5e_bench.toml").read_bytes())
     save_fold(folded_grid_model(n_states=9, angles=[0.0, math.radians(60)], clamp_strip=0, triangulate=True),
@@ -221,15 +222,15 @@ def test_over_the_cell_speed_limit_is_refused_even_with_a_matching_forged_check(
     assert_no_connection(socks)
 
 
-def test_a_forged_pass_for_a_colliding_program_fails_the_check_run_again(job, tmp_path, listener, capsys):
+def test_a_forged_pass_for_a_failing_program_fails_the_check_run_again(job, tmp_path, listener, capsys):
     host, socks = listener
     failed = json.loads((job / "far_check.json").read_text())
-    assert not failed["ok"] and any(p["kind"] == "collision" for p in failed["problems"])
+    assert not failed["ok"] and any(p["kind"] == "holds" for p in failed["problems"])
     forged = tmp_path / "forged.json"
     forged.write_text(json.dumps({**failed, "ok": True, "problems": []}))
     rc, out, err = fabkit(capsys, "send", job / "far.json", "--check", forged, "--cell", job / "cell.toml", "--host",
                           host)
-    assert rc == 2 and "the check run again before sending finds" in err and "collision" in err, err
+    assert rc == 2 and "the check run again before sending finds" in err and "holds" in err, err
     assert_no_connection(socks)
 
 
@@ -237,7 +238,7 @@ def test_a_failed_check_exits_1(job, listener, capsys):
     host, socks = listener
     rc, out, err = fabkit(capsys, "send", job / "far.json", "--check", job / "far_check.json", "--cell",
                           job / "cell.toml", "--host", host)
-    assert rc == 1 and "refusing to send" in err and "collision" in err and err.count("\n") == 1
+    assert rc == 1 and "refusing to send" in err and "is folded by nothing held" in err and err.count("\n") == 1
     assert_no_connection(socks)
 
 

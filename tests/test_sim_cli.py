@@ -30,6 +30,8 @@ def _grid(clamp_strip, angles_deg):
 
 @pytest.fixture(scope="module")
 def planned(tmp_path_factory):
+    from robot.holds_record import clamped_faces_of
+
     """Strip 2 folded up 60 deg about its crease with strip 0 clamped, planned in both cells by the
     toolpath planner (its own grip face choice); and the far wing of a two-wing fold."""
     d = tmp_path_factory.mktemp("check")
@@ -38,14 +40,16 @@ def planned(tmp_path_factory):
     out = {}
     for name, cell_file in CELL_FILES.items():
         cell = load_cell(cell_file)
-        res = plan_panel(cell, middle_row_frames(model), source={"file": "grid.fold"})
+        res = plan_panel(cell, middle_row_frames(model), source={"file": "grid.fold"},
+                         clamped_faces=clamped_faces_of(model))
         path = d / f"path_{name}.json"
         res.toolpath.save(path)
         out[name] = (cell, res.toolpath, path)
     # both wings up 60 deg around the clamped middle strip; the planner holds the far wing (face 6)
     wings = _grid(1, [60, 60])
     save_fold(wings, d / "wings.fold")
-    res = plan_panel(out["ur5e"][0], middle_row_frames(wings), grip_face=6, source={"file": "wings.fold"})
+    res = plan_panel(out["ur5e"][0], middle_row_frames(wings), grip_face=6, source={"file": "wings.fold"},
+                     clamped_faces=clamped_faces_of(wings))
     res.toolpath.save(d / "path_far.json")
     return d, out
 

@@ -1,6 +1,9 @@
 """Plain OBJ panels as a designer brings them (no tags, shuffled, noisy, triangulated) go through
-relax -> unfold -> refold -> toolpath with no tags, drive files or grip faces; score lines in the cut
-file are exactly the crease edges; the clamped face is never gripped."""
+relax -> unfold -> refold -> toolpath -> check -> dry-run send with no tags, drive files or grip
+faces; score lines in the cut file are exactly the crease edges; the clamped face is never gripped.
+On the one-arm bench cell every crease is held in every state (the clamp on one end of the row, the
+cup on the other, grip faces tried through the check) and the slow variants are sent to the
+controller stand-in (it moves in real time: tens of seconds each)."""
 import json
 
 import ezdxf
@@ -79,12 +82,42 @@ def _pipeline(tmp_path, tagged, variant):
     fixed = int(model.file_data["fabkit:fixed_face"])
     grip = json.loads(tr.read_text())["grip_face"]
     assert grip != fixed
-    return seq, fixed
+    return seq, fixed, path
+
+
+def _check_and_send(tmp_path, path, send: bool, arm_hits_panel: bool = False):
+    """`fabkit check` (holds proven in every state: the clamp on one end of the row, the cup on the
+    other), then with `send` a dry-run `fabkit send` to the controller stand-in. `arm_hits_panel`:
+    a 175 deg valley fold closes the wing over the cup (it grips the front side): the holds are
+    proven, but the check refuses the arm or tool inside the folded panel (and the wing on the
+    post)."""
+    from _ursim import StandIn
+
+    check = tmp_path / "check.json"
+    rc = main(["check", str(path), "--cell", CELL, "-o", str(check), "-q"])
+    rep = json.loads(check.read_text())
+    if arm_hits_panel:
+        assert rc == 1 and rep["holds"]["ok"] and not [p for p in rep["problems"] if p["kind"] == "holds"]
+        assert any(p["kind"] == "collision" and p["pair"][1].startswith("face_") for p in rep["problems"])
+        return
+    assert rc == 0 and rep["ok"], [p["detail"] for p in rep["problems"]]
+    assert rep["holds"]["ok"] and all(s["ok"] for s in rep["holds"]["states"]) and rep["panel_collisions"]["ok"]
+    if not send:
+        return
+    standin = StandIn("--cell", CELL, log=tmp_path / "ursim.log")
+    try:
+        rc = main(["send", str(path), "--check", str(check), "--cell", CELL, "--host", standin.host, "--power-on",
+                   "--report", str(tmp_path / "send.json"), "-q"])
+        sent = json.loads((tmp_path / "send.json").read_text())
+        assert rc == 0 and sent["ok"] and sent["last_completed"] == len(json.loads(path.read_text())["waypoints"]) - 1
+    finally:
+        standin.stop()
 
 
 @pytest.mark.parametrize("n,fold,variant", [(2, 120.0, "shuffled+noisy")])
 def test_plain_panel_goes_through_every_stage(tmp_path, n, fold, variant):
-    seq, fixed = _pipeline(tmp_path, reflect_tagged(n, fold), variant)
+    seq, fixed, path = _pipeline(tmp_path, reflect_tagged(n, fold), variant)
+    _check_and_send(tmp_path, path, send=False)
     # the clamped face as grip face: a program that folds nothing is refused
     rc = main(["toolpath", str(seq), "--cell", CELL, "-o", str(tmp_path / "p2.json"), "--grip-face", str(fixed), "-q"])
     assert rc == 2 and not (tmp_path / "p2.json").exists()
@@ -94,4 +127,5 @@ def test_plain_panel_goes_through_every_stage(tmp_path, n, fold, variant):
 @pytest.mark.parametrize("n,fold,variant", [(1, 30.0, "noisy"), (1, 175.0, "shuffled"), (2, 175.0, "plain"),
                                             (2, 60.0, "tri"), (1, 90.0, "shuffled+tri")])
 def test_plain_panels_all_variants(tmp_path, n, fold, variant):
-    _pipeline(tmp_path, reflect_tagged(n, fold), variant)
+    *_, path = _pipeline(tmp_path, reflect_tagged(n, fold), variant)
+    _check_and_send(tmp_path, path, send=True, arm_hits_panel=fold >= 175.0)

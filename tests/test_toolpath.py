@@ -306,7 +306,8 @@ def test_cli_writes_path_script_and_report(seq_file, tmp_path, capsys):
 def test_cli_unreachable_exits_1_and_writes_nothing(seq_file, tmp_path, capsys):
     text = CELL_FILES[0].read_text().replace("pose = [0.75, -0.25, 1.10, 0.0, 0.0, 1.5707963267948966]",
                                              "pose = [2.75, -0.25, 1.10, 0.0, 0.0, 1.5707963267948966]")
-    assert "2.75" in text
+    text = text.replace("pose = [0.56, -0.03, 1.10,", "pose = [2.56, -0.03, 1.10,")   # the clamp goes with it
+    assert "2.75" in text and "2.56" in text
     far = tmp_path / "far.toml"
     far.write_text(text)
     out, report = tmp_path / "p.json", tmp_path / "r.json"

@@ -50,8 +50,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--grip-face", type=int, metavar="F",
                         help="face id to grip (default: automatic among the middle-row faces, tagged or "
                              "inferred from the last fold state; never the clamped face)")
-    parser.add_argument("--approach", type=float, default=0.08, metavar="M",
-                        help="approach/retract distance in front of the face [m] (default 0.08)")
+    parser.add_argument("--approach", type=float, default=None, metavar="M",
+                        help="approach/retract distance in front of the face [m] (default 0.08; when not given "
+                             "and the grip face is chosen, 0.048 and 0.128 are tried too)")
     parser.add_argument("--standoff", type=float, default=0.0, metavar="M",
                         help="TCP distance from the face when gripping [m] (default 0)")
     parser.add_argument("--tool-yaw", type=float, default=None, metavar="DEG",
@@ -84,7 +85,7 @@ def plan_files(args, plan) -> None:
 
 
 def _check_args(args) -> None:
-    if not (math.isfinite(args.approach) and 0.0 < args.approach <= 0.5):
+    if args.approach is not None and not (math.isfinite(args.approach) and 0.0 < args.approach <= 0.5):
         raise InputError(f"{args.approach} m is not in (0, 0.5]", source="--approach")
     if not (math.isfinite(args.standoff) and 0.0 <= args.standoff <= 0.1):
         raise InputError(f"{args.standoff} m is not in [0, 0.1]", source="--standoff")
@@ -112,6 +113,10 @@ def run(args) -> int:
     from fabkit.commands._loading import load_fold_for
     from robot.cell import load_cell
     from robot.motion import MotionParams
+    from robot.holds_record import clamped_faces_of
+    from robot.panel_placement import placed_cell, placement_for
+    from sim.grip_search import checked_acceptor
+    from robot.grip_choice import approach_variants
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from robot.urscript import PROGRESS_REGISTER, write_urscript
     from sim.panel import check_fold_coordinates
@@ -140,7 +145,8 @@ def run(args) -> int:
     from fabkit.sheet import front_face_offset  # sheet hook: the cup grips the sheet's top face
 
     standoff = args.standoff + (0.0 if spec.rigid else front_face_offset(spec, args.design_surface))
-    options = PlanOptions(approach_distance=args.approach, grip_standoff=standoff,
+    options = PlanOptions(approach_distance=PlanOptions().approach_distance if args.approach is None else args.approach,
+                          grip_standoff=standoff,
                           tool_yaw=None if args.tool_yaw is None else math.radians(args.tool_yaw),
                           max_joint_step=math.radians(args.max_joint_step),
                           params=replace(MotionParams(), fold_speed=args.fold_speed))
@@ -148,7 +154,11 @@ def run(args) -> int:
               "states": int(frames.n_states), "middle_row": frames.faces.tolist()}
     with progress(args, "planning", total=None):
         try:
-            res = plan_panel(cell, frames, grip_face=args.grip_face, options=options, source=source)
+            placement = placement_for(cell, model)   # the clamped face on the cell's clamp
+            res = plan_panel(placed_cell(cell, placement), frames, grip_face=args.grip_face, options=options,
+                             source=source, clamped_faces=clamped_faces_of(model), placement=placement,
+                             accept=None if compensated is not None else checked_acceptor(cell, args.fold),
+                             variants=approach_variants(options) if args.approach is None else ())
         except PlanningError as exc:
             print(f"fabkit toolpath: {args.fold}: {exc}", file=sys.stderr)
             write_report(args, {**report, "ok": False, "problems": [exc.as_problem()]})

@@ -250,7 +250,11 @@ def _middle_creases(mesh, crease, crease_row, strip, column, row, ribbon) -> np.
 
 
 def _clamp_and_grips(mesh, strip, row) -> tuple[int, np.ndarray]:
-    """The middle-row face of the middle strip, and the other middle-row faces farthest first."""
+    """The middle-row face of the first strip (an end of the row), and the other middle-row faces
+    farthest first. Clamping one end and gripping the other holds every crease between: cutting
+    any crease row leaves the clamp on one side and the grip on the other (`fabkit.holds`), and a
+    chain of curved creases is one mechanism, so the two ends fix it; a clamp in the middle leaves
+    one wing held by nothing in a one-arm program."""
     row = np.asarray(row, np.int64)
     if len(row) == 0:
         c = mesh.face_centroids
@@ -260,7 +264,7 @@ def _clamp_and_grips(mesh, strip, row) -> tuple[int, np.ndarray]:
         keys = geometric_key(c[near], mesh.size)
         return int(near[np.lexsort((keys[:, 2], keys[:, 1], keys[:, 0]))[0]]), np.zeros(0, np.int64)
     strips = strip[row]
-    want = (int(strips.min()) + int(strips.max())) // 2
+    want = int(strips.min())
     clamp = int(row[np.argsort(np.abs(strips - want), kind="stable")[0]])
     others = row[row != clamp]
     d = np.linalg.norm(mesh.face_centroids[others] - mesh.face_centroids[clamp], axis=1)

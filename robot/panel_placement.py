@@ -1,0 +1,125 @@
+"""Where the panel sits in the cell: its clamped face on the cell's clamp.
+
+A cell with a `[clamp]` names the jaw's pose and footprint. When the cell's `[fixture]` already
+puts the clamp footprint on the clamped face(s), the panel stays where the fixture puts it.
+Otherwise the panel frame (the frame of the fold states, in which the clamped face never moves) is
+placed so that the clamped face's frame
+(`fabkit.placement.clamped_face_frame`: area centroid, principal axis toward the panel's area
+centroid, front normal; from geometry alone, so any vertex or face order gives the same placement)
+lands on the clamp pose. The planner plans in the placed cell and records the placement in
+PATH.json (`placement` {clamped_face, fixture: UR pose panel frame -> world}, inside the
+whole-document hash); the check poses the panel with the recorded fixture and fails when the clamp
+footprint leaves the clamped face. A cell without a clamp, or a FOLD file without a clamped face,
+keeps the cell's `[fixture]`. With several clamped faces (a FOLD file naming none: the faces its
+states hold still) the one nearest the panel's area centroid goes on the clamp.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+__all__ = ["placement_for", "placed_cell", "placement_of", "clamped_face_ring", "clamped_region_ring",
+           "footprint_check"]
+
+
+def clamped_face_ring(fold_model, face: int) -> np.ndarray:
+    """The outline (k, 2) of polygon `face` in the FOLD file's key frame (the flat pattern): the union
+    of its triangles (`faces_fabkit:polygon`), counter-clockwise."""
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    from fabkit.holds import fold_triangles
+
+    V = np.asarray(fold_model.vertices_coords, np.float64)
+    all_tris, poly = fold_triangles(fold_model)
+    tris = [t for t, p in zip(all_tris, poly) if p == face]
+    if not tris:
+        raise ValueError(f"face {face} is not a face of the panel")
+    shape = unary_union([Polygon(V[t][:, :2]) for t in tris]).buffer(0)
+    if shape.geom_type != "Polygon":
+        raise ValueError(f"face {face} is not one simple polygon in the flat pattern")
+    ring = np.asarray(shape.exterior.coords)[:-1]
+    area = 0.5 * np.sum(ring[:, 0] * np.roll(ring[:, 1], -1) - np.roll(ring[:, 0], -1) * ring[:, 1])
+    return ring if area > 0 else ring[::-1]
+
+
+def clamped_region_ring(fold_model, faces) -> np.ndarray:
+    """The outline (k, 2) of the union of the clamped faces `faces` in the flat pattern (the largest
+    piece when they are not connected), counter-clockwise."""
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    shape = unary_union([Polygon(clamped_face_ring(fold_model, int(f))) for f in faces]).buffer(0)
+    if shape.geom_type != "Polygon":
+        shape = max(shape.geoms, key=lambda g: g.area)
+    ring = np.asarray(shape.exterior.coords)[:-1]
+    area = 0.5 * np.sum(ring[:, 0] * np.roll(ring[:, 1], -1) - np.roll(ring[:, 0], -1) * ring[:, 1])
+    return ring if area > 0 else ring[::-1]
+
+
+def footprint_check(fold_model, cell, faces, fixture=None):
+    """`fabkit.placement.ClampCheck` of the cell's clamp footprint on the clamped faces with the panel
+    placed by `fixture` (default the cell's)."""
+    from fabkit.placement import check_clamp_footprint
+
+    ring = clamped_region_ring(fold_model, faces)
+    pts = np.column_stack([ring, np.zeros(len(ring))])
+    fx = cell.fixture if fixture is None else fixture
+    return check_clamp_footprint(pts, np.arange(len(ring)), int(faces[0]), fx, cell.clamp.pose, cell.clamp.footprint)
+
+
+def _area_centroid(fold_model) -> np.ndarray:
+    from fabkit.holds import fold_triangles
+
+    V = np.asarray(fold_model.vertices_coords, np.float64)[:, :2]
+    T, _ = fold_triangles(fold_model)
+    a, b, c = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
+    area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    return ((a + b + c) / 3 * area[:, None]).sum(axis=0) / area.sum()
+
+
+def placement_for(cell, fold_model) -> dict | None:
+    """The `placement` record putting the FOLD file's clamped face on `cell`'s clamp, or None (no
+    clamp in the cell, or no clamped face)."""
+    from fabkit.placement import place_on_clamp
+    from robot.cell import matrix_to_pose
+    from robot.holds_record import clamped_faces_of
+
+    if getattr(cell, "clamp", None) is None:
+        return None
+    clamped = clamped_faces_of(fold_model)
+    if not clamped or footprint_check(fold_model, cell, clamped).ok:
+        return None
+    centre = _area_centroid(fold_model)
+    rings = {int(f): clamped_face_ring(fold_model, int(f)) for f in clamped}
+    dist = {f: (round(float(np.linalg.norm(r.mean(axis=0) - centre)), 9), *np.round(r.mean(axis=0), 9))
+            for f, r in rings.items()}
+    face = min(rings, key=lambda f: dist[f])
+    ring = rings[face]
+    pts = np.column_stack([ring, np.zeros(len(ring))])
+    fixture = place_on_clamp(pts, np.arange(len(ring)), cell.clamp.pose, centre)
+    return {"clamped_face": face, "fixture": [float(x) for x in matrix_to_pose(fixture)]}
+
+
+def placement_of(extra: dict) -> dict | None:
+    """The validated `placement` record of a toolpath's extra keys, or None; `ValueError` naming the
+    key for a malformed one."""
+    p = extra.get("placement") if isinstance(extra, dict) else None
+    if p is None:
+        return None
+    ok = (isinstance(p, dict) and isinstance(p.get("clamped_face"), int) and not isinstance(p["clamped_face"], bool)
+          and isinstance(p.get("fixture"), list) and len(p["fixture"]) == 6
+          and all(isinstance(x, (int, float)) and not isinstance(x, bool) and abs(x) <= 100 for x in p["fixture"]))
+    if not ok:
+        raise ValueError("placement: expected {clamped_face: face id, fixture: [x, y, z, rx, ry, rz]}")
+    return p
+
+
+def placed_cell(cell, placement: dict | None):
+    """`cell` with the panel placed by `placement` (its fixture replaced), or `cell` for None."""
+    from robot.cell import pose_to_matrix
+
+    if placement is None:
+        return cell
+    return replace(cell, fixture=pose_to_matrix(placement["fixture"]))
