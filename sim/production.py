@@ -32,28 +32,30 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
     None means both passed."""
     from fabkit.frames import middle_row_frames
     from fabkit.io.fold import load_fold
+    from robot.holds_record import clamped_faces_of
+    from robot.panel_placement import placed_cell, placement_for
     from robot.toolpath import PlanningError, plan_panel
-    from sim.check import check_program, program_from_toolpath
-    from sim.panel import panel_from_fold
+    from sim.check import run_toolpath_check
 
     cell = _cell(cell_toml, cell_name)
+    out = {"stage": None, "reason": "", "toolpath": None, "check": None, "cycle_time_s": None, "grip_face": None}
     with tempfile.TemporaryDirectory(prefix="fabkit-program-") as tmp:  # read back exactly as a file
         path = Path(tmp) / Path(fold_name).name
         path.write_text(fold_text)
         model = load_fold(path)
-    frames = middle_row_frames(model, source=fold_name)
-    source = {"file": fold_name, "sha256": hashlib.sha256(fold_text.encode()).hexdigest(),
-              "states": int(frames.n_states)}
-    out = {"stage": None, "reason": "", "toolpath": None, "check": None, "cycle_time_s": None, "grip_face": None}
-    try:
-        res = plan_panel(cell, frames, source=source)
-    except PlanningError as exc:
-        return {**out, "stage": "program", "reason": str(exc)}
-    tp = res.toolpath
-    out.update(toolpath=tp.to_json(), grip_face=int(res.grip_face), cycle_time_s=float(res.cycle_time))
-    prog = program_from_toolpath(tp, cell)
-    panel = panel_from_fold(model, cell.fixture, grip_face_id=res.grip_face, thickness=thickness, source=fold_name)
-    report, _ = check_program(prog, cell, panel)
+        frames = middle_row_frames(model, source=fold_name)
+        source = {"file": fold_name, "sha256": hashlib.sha256(fold_text.encode()).hexdigest(),
+                  "states": int(frames.n_states)}
+        try:  # planned as `fabkit toolpath` plans: the clamped face on the cell's clamp
+            placement = placement_for(cell, model)
+            res = plan_panel(placed_cell(cell, placement), frames, source=source,
+                             clamped_faces=clamped_faces_of(model), placement=placement)
+        except PlanningError as exc:
+            return {**out, "stage": "program", "reason": str(exc)}
+        tp = res.toolpath
+        out.update(toolpath=tp.to_json(), grip_face=int(res.grip_face), cycle_time_s=float(res.cycle_time))
+        # the check `fabkit check` runs: arm, panel, holds, the panel's own collisions
+        report = run_toolpath_check(tp, cell, fold=path, thickness=thickness).report
     out["check"] = report.to_json()
     out["cycle_time_s"] = float(report.cycle_time_s)
     if not report.ok:

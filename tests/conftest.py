@@ -10,3 +10,18 @@ os.environ.setdefault("FABKIT_STRICT", "1")
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+#: Test files that take longest (seconds of `--durations` on the 2-core machine: the real-time
+#: dry runs on the stand-in, the demo, the production runs). `make test` hands whole files to its
+#: two workers in collection order (`--dist loadfile`); starting with these keeps one worker from
+#: running a long file alone at the end.
+LONGEST_FIRST = ("test_structure_pipeline.py", "test_readme.py", "test_demo_e2e.py", "test_api_pipeline.py",
+                 "test_sheet_send.py", "test_production.py", "test_panels.py", "test_send_stop.py",
+                 "test_production_dask.py", "test_production_repeats.py", "test_ursim_interfaces.py",
+                 "test_send.py", "test_ursim_fuzz.py")
+
+
+def pytest_collection_modifyitems(session, config, items):
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: file order kept within

@@ -120,7 +120,9 @@ def test_the_panel_is_checked_in_the_compensated_states_with_the_sheets_thicknes
     assert res.panel.pieces.thickness == pytest.approx(0.002)
     design = load_fold(crease_600 / "seq.fold")
     comp = compensated_states(design, spec).model
-    cell = load_cell(CELL)
+    from robot.panel_placement import placed_cell, placement_of
+
+    cell = placed_cell(load_cell(CELL), placement_of(tp.extra))  # where the check poses the panel
     grip = tp.extra["grip"]["face"]
     want = panel_from_fold(comp, cell.fixture, grip_face_id=grip, thickness=0.002)
     as_designed = panel_from_fold(design, cell.fixture, grip_face_id=grip, thickness=0.002)
