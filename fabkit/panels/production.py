@@ -143,17 +143,23 @@ def _panel_frame(uv: np.ndarray, faces: np.ndarray, fd: dict, clamped: int, side
     return (uv - c0) @ R.T
 
 
-def refold_inputs(task: dict):
-    """(flat, target, clamped face, laid back up) of a panel task: the flat pattern in the panel
-    frame and the relaxed panel the refold folds it into (faces reversed when the back is up)."""
-    from fabkit.mesh import PolyMesh
-
+def _task_in_panel_frame(task: dict):
+    """(faces, face data, flat uv in the panel frame, clamped face or None) of a panel task."""
     faces = np.asarray(task["faces"])
     fd = {k: np.asarray(v) for k, v in task["face_data"].items()}
     uv = np.asarray(task["uv"], dtype=np.float64)
     clamped = _clamped_face(fd)
     if clamped is not None:
         uv = _panel_frame(uv, faces, fd, clamped, task.get("side", (0.0, 1.0)))
+    return faces, fd, uv, clamped
+
+
+def refold_inputs(task: dict):
+    """(flat, target, clamped face, laid back up) of a panel task: the flat pattern in the panel
+    frame and the relaxed panel the refold folds it into (faces reversed when the back is up)."""
+    from fabkit.mesh import PolyMesh
+
+    faces, fd, uv, clamped = _task_in_panel_frame(task)
     target = PolyMesh(np.asarray(task["relaxed"]), faces, face_data=fd)
     back_up = _mostly_valley(target)
     if back_up:  # lay the sheet back face up on the fixture: its valleys become mountains seen from above
@@ -222,12 +228,7 @@ def _part(task: dict) -> dict:
     """What `fabkit.panels.repeats.same_part_classes` compares of a panel task: the flat pattern in
     the panel frame and the relaxed panel (whether the back is laid up follows from the relaxed
     panel's fold angles, which a rigid motion keeps, so it is not computed here)."""
-    faces = np.asarray(task["faces"])
-    fd = {k: np.asarray(v) for k, v in task["face_data"].items()}
-    uv = np.asarray(task["uv"], dtype=np.float64)
-    clamped = _clamped_face(fd)
-    if clamped is not None:
-        uv = _panel_frame(uv, faces, fd, clamped, task.get("side", (0.0, 1.0)))
+    faces, fd, uv, clamped = _task_in_panel_frame(task)
     exact = {"faces": faces, "clamped": -1 if clamped is None else clamped, "side": tuple(task.get("side", (0.0, 1.0))),
              **{f"tag:{k}": v for k, v in fd.items()},
              **{k: task[k] for k in ("frames", "target_tol", "length_tol", "cell_toml", "cell_name", "thickness")},
