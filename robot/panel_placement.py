@@ -29,7 +29,7 @@ def clamped_face_ring(fold_model, face: int) -> np.ndarray:
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
-    from fabkit.holds import fold_triangles
+    from fabkit.hold_model_fold import fold_triangles
 
     V = np.asarray(fold_model.vertices_coords, np.float64)
     all_tris, poly = fold_triangles(fold_model)
@@ -70,7 +70,7 @@ def footprint_check(fold_model, cell, faces, fixture=None):
 
 
 def _area_centroid(fold_model) -> np.ndarray:
-    from fabkit.holds import fold_triangles
+    from fabkit.hold_model_fold import fold_triangles
 
     V = np.asarray(fold_model.vertices_coords, np.float64)[:, :2]
     T, _ = fold_triangles(fold_model)

@@ -70,7 +70,8 @@ def check_holds(tp, fold_model, states, *, source: str | None = None) -> HoldsCh
     """The holds check of toolpath `tp` (a `robot.toolpath.Toolpath`) against its FOLD model, with
     `states` the fractional fold state of every waypoint (`sim.interpolate.Program.states`)."""
     from fabkit.frames import fold_positions
-    from fabkit.holds import hold_model_from_fold, holds_along
+    from fabkit.hold_model_fold import hold_model_from_fold
+    from fabkit.holds import holds_along
     from robot.holds_record import clamped_faces_of, holds_of, holds_record
     from sim.toolpath_program import grip_face_of
 

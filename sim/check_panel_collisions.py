@@ -54,7 +54,7 @@ def check_panel_collisions_of_fold(fold_model, cell, states, clamped_faces=(), *
     from sim.panel import DEFAULT_THICKNESS
     from sim.panel_collision import check_panel_collisions, collider_for_sequence
 
-    from fabkit.holds import fold_triangles
+    from fabkit.hold_model_fold import fold_triangles
 
     tris, tri_face = fold_triangles(fold_model)
     positions = fold_positions(fold_model)

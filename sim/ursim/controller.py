@@ -14,8 +14,12 @@ its socket) belongs to that connection's thread. Sockets are written outside the
 log and the client registry (`clients.Clients`) have leaf locks of their own (nothing is acquired
 under them), so no thread holds the controller lock
 while it waits on a client. A lock rather than one event loop: the programs (ur_rtde's control
-script, URScript) are blocking threads on a real controller too, the tick must keep its period
-whatever a client does, and every server stays a small blocking loop.
+script, URScript) are blocking threads on a real controller too, and the tick must keep its
+period whatever a client does (the network is one non-blocking loop, io_loop.py).
+
+Over the project's ~400-line guide (about 560 lines) for that rule's sake: `Controller` is the one
+writer of the state the lock guards, and its methods are all of those writes; spreading them over
+modules would spread the ownership rule with them.
 """
 from __future__ import annotations
 
