@@ -97,11 +97,11 @@ class CheckReport:
 
 
 
-def cycle_time(prog: Program, dwell=None) -> float:
-    """Program duration (s) by `robot.ur_motion`'s model of the controller (the planner's and the
-    stand-in's) at full speed slider, with the payload's joint acceleration bound, plus per-waypoint
-    dwell (s)."""
-    from robot.motion import segment_times
+def program_cycle_time(prog: Program, dwell=None) -> float:
+    """A checked program's duration [s]: `robot.motion.cycle_time` (the controller model the
+    planner and the stand-in share) at full speed slider, with the payload's joint acceleration
+    bound, plus per-waypoint dwell; NaN when it cannot be timed (reported by the check)."""
+    from robot.motion import cycle_time
     from robot.ur_motion import JOINT_ACCEL_MAX
 
     if len(prog) < 2 or not np.isfinite(prog.q).all():
@@ -109,11 +109,10 @@ def cycle_time(prog: Program, dwell=None) -> float:
     r = prog.r if prog.r is not None else np.zeros(len(prog))
     bound = JOINT_ACCEL_MAX if prog.accel_bound is None else prog.accel_bound
     try:
-        seg = segment_times(np.asarray(prog.moves), prog.poses[:, :3, 3], prog.poses[:, :3, :3], prog.q,
-                            prog.v, prog.a, r, bound)
-    except ValueError:  # overlapping blends or a zero speed: the program cannot be timed (reported)
+        return cycle_time(np.asarray(prog.moves), prog.poses[:, :3, 3], prog.poses[:, :3, :3], prog.q, prog.v, prog.a,
+                          r, 0.0 if dwell is None else dwell, bound).total
+    except ValueError:  # overlapping blends or a zero speed
         return math.nan
-    return float(seg.sum()) + (0.0 if dwell is None else float(np.sum(dwell)))
 
 
 def check_program(prog: Program, cell, panel: PanelModel | None = None,
@@ -142,7 +141,7 @@ def check_program(prog: Program, cell, panel: PanelModel | None = None,
         notes.append(f"panel faces follow their fold states rigidly to {panel.fit_residual.max() * 1e3:.3f} mm")
     report = CheckReport(
         toolpath_sha256=prog.sha256, ok=not problems, problems=problems, min_clearance_m=min_d,
-        cycle_time_s=cycle_time(prog, prog.dwell), waypoints=len(prog), configs_checked=len(dense.q),
+        cycle_time_s=program_cycle_time(prog, prog.dwell), waypoints=len(prog), configs_checked=len(dense.q),
         min_clearance_pair=min_pair, clearance_limit_m=float(cell.limits.clearance),
         clearance_window_m=float(names.margins["environment_m"]),
         panel_window_m=float(names.margins.get("panel_m", 0.0)), cell=cell.name, robot=model.name,
