@@ -35,7 +35,7 @@ from sim.toolpath_program import (fold_file_of, fold_progress, grip_face_of, loa
 
 __all__ = ["CheckSettings", "Problem", "Event", "CheckReport", "Program", "Dense", "ToolpathCheck",
            "interpolate_program", "check_program", "check_toolpath", "run_toolpath_check", "program_from_toolpath",
-           "fold_progress", "fold_file_of", "grip_face_of", "cycle_time", "KINDS", "FORMAT"]
+           "fold_progress", "fold_file_of", "grip_face_of", "program_cycle_time", "KINDS", "FORMAT"]
 
 FORMAT = "fabkit.check/2"
 
