@@ -46,8 +46,7 @@ from fabkit.refold.geometry import build_face_tree, vertex_positions
 from fabkit.refold.kinematics import build_vertex_loops, loop_closure
 
 __all__ = ["HoldModel", "HoldReport", "SecondState", "crease_rows", "hold_analysis", "holds_along", "second_state",
-           "hold_model_from_fold", "RANK_TOL",
-           "fold_triangles", "FLAT_STATE_ANGLE", "MOTION_TOL", "PLANAR_DIAGONAL_ANGLE", "PLANAR_QUAD_HOLD_ANGLE"]
+           "RANK_TOL", "FLAT_STATE_ANGLE", "MOTION_TOL", "PLANAR_DIAGONAL_ANGLE", "PLANAR_QUAD_HOLD_ANGLE"]
 
 #: Singular values of the dimensionless hold matrix at or below this count as zero (module docstring).
 RANK_TOL = 1e-8
@@ -374,6 +373,3 @@ def holds_along(model: HoldModel, angles, held_faces, *, between: int = 1, tol: 
                 out.append((s + t, hold_analysis(model, rho, both or per_state[s + 1], tol=tol)))
     return out
 
-
-# the FOLD-file side of the model lives in its own module; its names stay importable from here
-from fabkit.hold_model_fold import fold_triangles, hold_model_from_fold  # noqa: E402

@@ -12,6 +12,7 @@ import copy
 import dataclasses
 import functools
 import hashlib
+import json
 import tempfile
 import tomllib
 from pathlib import Path
@@ -56,7 +57,9 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
         out.update(toolpath=tp.to_json(), grip_face=int(res.grip_face), cycle_time_s=float(res.cycle_time))
         # the check `fabkit check` runs: arm, panel, holds, the panel's own collisions
         report = run_toolpath_check(tp, cell, fold=path, thickness=thickness).report
-    out["check"] = report.to_json()
+        # the report names the FOLD file it checked: the panel's own name, not this temporary copy
+        check = json.loads(json.dumps(report.to_json()).replace(json.dumps(str(path))[1:-1], fold_name))
+    out["check"] = check
     out["cycle_time_s"] = float(report.cycle_time_s)
     if not report.ok:
         first = report.problems[0]

@@ -170,7 +170,7 @@ def test_trifold_nearest_other_state(trifold):
 
 def test_same_verdicts_from_the_fold_file(trifold, tmp_path):
     """The check reads FOLD files: the model rebuilt from one gives the sequence's verdicts."""
-    from fabkit.holds import hold_model_from_fold
+    from fabkit.hold_model_fold import hold_model_from_fold
     from fabkit.io.fold import load_fold, save_fold
     from fabkit.refold.export import to_fold_model
 
