@@ -9,11 +9,6 @@
 - `sim.programs`: synthetic sweep programs for tests and benchmarks.
 - `sim.ursim`: the controller stand-in (its own package).
 
-MuJoCo reads `MUJOCO_GL` once, when it is first imported, and its default (GLFW) needs a display
-and costs about 0.3 s to load (pyglfw checks its library in a subprocess). So importing this
-package runs `sim.render.select_gl_backend()` before any sim module imports mujoco: an explicit
-`MUJOCO_GL` is kept; otherwise EGL (or OSMesa) is chosen, which is what rendering needs anyway.
+Every module here that imports mujoco imports `sim.gl_backend` first, which picks MuJoCo's
+offscreen OpenGL backend before mujoco loads (`select_gl_backend`).
 """
-from sim.render import select_gl_backend as _select_gl_backend
-
-_select_gl_backend()

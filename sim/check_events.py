@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 
+import sim.gl_backend  # noqa: F401  (MUJOCO_GL before mujoco loads)
 import mujoco
 import numpy as np
 

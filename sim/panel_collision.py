@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import sim.gl_backend  # noqa: F401  (MUJOCO_GL before mujoco loads)
 import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation

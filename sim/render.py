@@ -8,44 +8,16 @@ always called explicitly (its `__del__` prints a traceback at interpreter exit o
 """
 from __future__ import annotations
 
-import ctypes.util
 import math
 import os
-import sys
 
 import numpy as np
 
 from fabkit.errors import InputError
 from fabkit.io.atomic import atomic_path
+from sim.gl_backend import select_gl_backend
 
 __all__ = ["select_gl_backend", "render_frames", "write_png", "write_mp4", "camera_for_cell", "view"]
-
-
-def select_gl_backend() -> str | None:
-    """Choose an offscreen OpenGL backend for MuJoCo; returns its name, or None if there is none.
-
-    Respects an explicit `MUJOCO_GL`. Otherwise sets `egl` when libEGL is installed, else `osmesa`
-    (with `PYOPENGL_PLATFORM=osmesa`) when libOSMesa is. Once mujoco is imported it can only report
-    the backend mujoco picked (None if that is GLFW without a display).
-    """
-    if "mujoco" in sys.modules:  # too late to choose: report what mujoco picked at import
-        context = getattr(sys.modules["mujoco"], "GLContext", None)
-        picked = getattr(context, "__module__", "").rsplit(".", 1)[-1]
-        if picked in ("egl", "osmesa") or (picked == "glfw" and os.environ.get("DISPLAY")):
-            return picked
-        return None
-    chosen = os.environ.get("MUJOCO_GL")
-    if chosen:
-        return chosen
-    if ctypes.util.find_library("EGL"):
-        os.environ["MUJOCO_GL"] = "egl"
-        os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-        return "egl"
-    if ctypes.util.find_library("OSMesa"):
-        os.environ["MUJOCO_GL"] = "osmesa"
-        os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
-        return "osmesa"
-    return None
 
 
 def camera_for_cell(cell):
