@@ -35,9 +35,10 @@ from pathlib import Path
 
 from fabkit.errors import InputError
 from fabkit.results import Checked, Flat, Folds, Panel, Program, Relaxed, Sent
+from fabkit.toolpath_stage import PlanSettings, fold_source, plan_fold_file
 from fabkit.verdicts import DEFAULT_MAX_ERROR, DEFAULT_MAX_MOVE, DEFAULT_TARGET_RTOL, MAX_REFOLD_FRAMES
 
-__all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "render", "send", "fold_source",
+__all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "render", "send", "fold_source", "PlanSettings",
            "Panel", "Relaxed", "Flat", "Folds", "Program", "Checked", "Sent"]
 
 #: file names in the working folder (those of `fabkit demo`)
@@ -165,101 +166,39 @@ def _workdir(workdir) -> Path:
     return path
 
 
-def fold_source(fold_file: str | os.PathLike, states: int) -> dict:
-    """The provenance a toolpath records of the FOLD file it is planned from: its name (resolved
-    against the PATH.json's folder when checked), sha256 and number of fold states."""
-    import hashlib
-
-    path = Path(fold_file)
-    return {"file": path.name, "sha256": hashlib.sha256(path.read_bytes()).hexdigest(), "states": int(states)}
-
-
 def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | None = None,
-         grip_face: int | None = None, approach: float | None = None, standoff: float | None = None,
-         tool_yaw: float | None = None, fold_speed: float | None = None,
-         max_joint_step: float | None = None, material="none", thickness=None, crease: str = "plain",
-         ligament=None, bend_radius=None, tool_mass: float | None = None, check_loads: bool = False,
-         design_surface: str = "top") -> Program:
+         settings: PlanSettings | None = None, **options) -> Program:
     """A UR toolpath for `folds` in the cell file `cell` (`fabkit toolpath`). Writes the fold
     states (`fold.fold`) and the toolpath (`path.json`) into `workdir` (made if missing; default:
-    a new temporary folder) and plans from the FOLD file as written, recording its sha256. Options
-    as `fabkit toolpath` (metres, m/s; `tool_yaw`, `max_joint_step` in degrees); None: the
-    planner's defaults.
+    a new temporary folder) and plans from the FOLD file as written, recording its sha256.
 
-    The sheet (`material` a name, .toml path or `fabkit.materials.Material`; `thickness`,
-    `ligament`, `bend_radius` in metres or as text with a unit, "1mm"; `crease` plain | grooved |
-    perforated; `tool_mass` kg; `design_surface` top | mid | bottom) as `fabkit toolpath
-    --material ...`: the path follows the
-    springback-compensated states, path.json carries `sheet` and `payload`, and
-    `details["loads"]` the fold-load verdicts (with `check_loads`, exceeded loads make it not ok
-    and write no path.json). Not ok (no path.json) when the path is unreachable, singular or
-    discontinuous."""
+    `options` are the fields of `fabkit.toolpath_stage.PlanSettings` (or pass `settings`), the
+    options of `fabkit toolpath`: `grip_face`, `approach`, `standoff` [m], `tool_yaw` [deg],
+    `fold_speed` [m/s], `max_joint_step` [deg]; the sheet `material` (a name, .toml path or
+    `fabkit.materials.Material`), `thickness`, `ligament`, `bend_radius` (metres or text with a
+    unit, "1mm"), `crease` plain | grooved | perforated, `tool_mass` [kg], `design_surface` top |
+    mid | bottom, `check_loads`. With a material the path follows the springback-compensated
+    states, path.json carries `sheet` and `payload`, and `details["loads"]` / `loads` the fold-load
+    verdicts (with `check_loads`, exceeded loads make it not ok and write no path.json). Not ok (no
+    path.json) when the path is unreachable, singular or discontinuous."""
     from dataclasses import replace
 
-    from fabkit.frames import planning_frames
-    from fabkit.io.load import load_fold_model
-    from fabkit.sheet import sheet_of
-    from robot.cell import load_cell
-    from robot.holds_record import clamped_faces_of
-    from robot.panel_placement import placed_cell, placement_for
-    from robot.grip_choice import approach_variants
-    from robot.sheet_program import compensated_states, sheet_records
-    from sim.grip_search import checked_acceptor
-    from robot.toolpath import PlanningError, PlanOptions, plan_panel
-    from sim.panel import check_fold_coordinates
-
     _require_ok(folds, "plan")
-    if tool_mass is not None and not (math.isfinite(tool_mass) and 0 <= tool_mass <= 20):
-        raise InputError(f"{tool_mass} kg is not in [0, 20]", source="tool_mass")
-    spec = sheet_of(material, thickness, crease, ligament=ligament, bend_radius=bend_radius)
-    from fabkit.sheet import DESIGN_SURFACES
-
-    if design_surface not in DESIGN_SURFACES or (spec.rigid and design_surface != "top"):
-        raise InputError(f"must be one of {', '.join(DESIGN_SURFACES)}, with a material other than none for "
-                         f"another than top; got {design_surface!r}", source="design_surface")
-    cell_obj = load_cell(cell)
+    unknown = sorted(set(options) - set(PlanSettings.field_names()))
+    if unknown:
+        raise InputError(f"unknown option(s) {', '.join(unknown)}; options: {', '.join(PlanSettings.field_names())}",
+                         source="plan")
+    settings = replace(settings or PlanSettings(), **options)
+    settings.check()
+    settings.sheet()  # refuse bad sheet options before anything is written
     folder = _workdir(workdir)
     fold_file = folds.save(folder / FOLD_NAME)
-    model, _ = load_fold_model(fold_file)
-    check_fold_coordinates(model, source=str(fold_file))
-    design_model, compensated = model, compensated_states(model, spec, source=str(fold_file))
-    if compensated is not None:
-        model = compensated.model
-    frames = planning_frames(model, grip_face, source=str(fold_file))
-    options = PlanOptions()
-    given = {"approach_distance": approach, "grip_standoff": standoff,
-             "tool_yaw": None if tool_yaw is None else math.radians(tool_yaw),
-             "max_joint_step": None if max_joint_step is None else math.radians(max_joint_step)}
-    options = replace(options, **{k: v for k, v in given.items() if v is not None})
-    if not spec.rigid:  # the cup grips the sheet's top face
-        from fabkit.sheet import front_face_offset
-
-        options = replace(options, grip_standoff=options.grip_standoff + front_face_offset(spec, design_surface))
-    if fold_speed is not None:
-        options = replace(options, params=replace(options.params, fold_speed=fold_speed))
-    source = fold_source(fold_file, frames.n_states)
-    common = dict(workdir=folder, fold_file=fold_file, cell=cell_obj, cell_file=Path(cell),
-                  details={"states": int(frames.n_states), "middle_row": frames.faces.tolist()})
-    try:
-        placement = placement_for(cell_obj, model)   # the clamped face on the cell's clamp
-        res = plan_panel(placed_cell(cell_obj, placement), frames, grip_face=grip_face, options=options,
-                         source=source, clamped_faces=clamped_faces_of(model), placement=placement,
-                         # grip faces tried through the check (a sheet program is checked as compensated, later)
-                         accept=None if compensated is not None else checked_acceptor(cell_obj, fold_file),
-                         variants=approach_variants(options) if approach is None else ())
-    except PlanningError as exc:
-        return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),), **common)
-    tp = res.toolpath
-    if compensated is not None:
-        tp, loads = sheet_records(tp, spec, design_model, compensated, cell_obj, res.grip_face, tool_mass,
-                                  design_surface=design_surface)
-        common["details"]["loads"] = loads.summary()
-        if check_loads and not loads.ok:
-            return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=tuple(loads.failure_lines()),
-                           **common)
+    program = plan_fold_file(fold_file, cell, settings, workdir=folder)
+    if not program.ok:
+        return program
     path_file = folder / PATH_NAME
-    tp.save(path_file)
-    return Program(toolpath=tp, path_file=path_file, plan=res, ok=True, problems=(), **common)
+    program.toolpath.save(path_file)
+    return replace(program, path_file=path_file)
 
 
 def check(program: Program, *, use_panel: bool = True, thickness=None, material=None, crease: str = "plain",

@@ -20,6 +20,7 @@ if TYPE_CHECKING:  # annotations only: importing a result type loads no numpy, r
     from fabkit.relax.options import RelaxResult
     from fabkit.unfold.development import Development
     from robot.cell import Cell
+    from robot.loads import LoadReport
     from robot.planner import PlanResult
     from robot.sender import SendResult
     from robot.toolpath import Toolpath
@@ -169,8 +170,12 @@ def plan_report(plan: PlanResult, toolpath: Toolpath) -> dict:
 @dataclass(frozen=True, eq=False)
 class Program:
     """`fk.plan()`: `toolpath` (`robot.toolpath.Toolpath`, None when planning failed), the
-    files it was planned from and written to (`fold_file`, `path_file` in `workdir`), the `cell`
-    (`robot.cell.Cell`) and `cell_file`, and the planner's `plan` (`robot.planner.PlanResult`)."""
+    files it was planned from and written to (`fold_file`, `path_file` in `workdir`; None when not
+    written), the `cell` (`robot.cell.Cell`) and `cell_file`, the planner's `plan`
+    (`robot.planner.PlanResult`), how the FOLD file was read (`loaded`), `notes` (the stage's notes,
+    besides the loader's in `loaded.notes`), `records` (the problems as the report writes them: the planner's
+    CHECK.json-style problem, or the exceeded fold loads) and, for a sheet, `loads`
+    (`robot.loads.LoadReport`)."""
 
     toolpath: Toolpath | None
     workdir: Path
@@ -182,21 +187,34 @@ class Program:
     ok: bool
     problems: tuple[str, ...]
     details: dict = field(default_factory=dict)
+    loaded: LoadInfo | None = None
+    notes: tuple[str, ...] = ()
+    records: tuple = ()
+    loads: LoadReport | None = None
 
     def urscript(self, progress_register: int | None = None) -> str:
         """The URScript program (`fabkit toolpath --script`) of this toolpath."""
+        from fabkit.toolpath_stage import check_progress_register
         from robot.urscript import PROGRESS_REGISTER, write_urscript
 
+        check_progress_register(progress_register)
         reg = PROGRESS_REGISTER if progress_register is None else progress_register
         return write_urscript(self.toolpath, program_name=f"fold_{self.cell.name}", progress_register=reg)
 
-    def to_json(self) -> dict:
-        """The report `fabkit toolpath --report` writes."""
+    def report(self, output=None, script=None) -> dict:
+        """The report `fabkit toolpath --report` writes, naming `output` (the PATH.json written)
+        and `script` (the URScript file, or None)."""
         out = {"command": "toolpath", "input": str(self.fold_file), "cell": self.cell.name,
-               "robot": self.cell.model.name, "ok": self.ok, "problems": list(self.problems), **self.details}
+               "robot": self.cell.model.name, **self.details, "ok": self.ok}
         if self.plan is not None:
-            out.update({"output": str(self.path_file), **plan_report(self.plan, self.toolpath)})
+            out.update({"output": None if output is None else str(output),
+                        "script": None if script is None else str(script), **plan_report(self.plan, self.toolpath)})
+        out["problems"] = list(self.records)
         return _jsonable(out)
+
+    def to_json(self) -> dict:
+        """The report `fabkit toolpath --report` writes for `path_file`."""
+        return self.report(self.path_file)
 
 
 @dataclass(frozen=True, eq=False)

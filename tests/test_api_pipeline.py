@@ -235,3 +235,40 @@ def test_the_script_in_docs_api_runs_as_written(tmp_path, monkeypatch):
     assert report.ok, report.problems
     assert program.workdir == Path("out") and report.check_file == Path("out") / "check.json"
     _assert_check_equals_cli(report, program, tmp_path)
+
+
+@pytest.mark.parametrize("panel, sheet", [
+    ("trifold", ("--material", "5052-H32", "--thickness", "1mm")),
+    ("plain-mm", ()),
+    ("plain-mm", ("--material", "5052-H32", "--thickness", "1.6mm", "--tool-mass", "0.5",
+                  "--design-surface", "mid")),
+])
+def test_fabkit_toolpath_writes_what_fk_plan_writes(tmp_path, panel, sheet, capsys):
+    """`fabkit toolpath` is `fk.plan` on a FOLD file: the same PATH.json, URScript and report, byte
+    for byte (the report differs only in the files it names), on the demo's tri-fold and on a plain
+    millimetre OBJ, rigid and with a sheet."""
+    source = fk.generate("trifold", resolution=6) if panel == "trifold" else fk.load(_plain_mm_obj(tmp_path), "mm")
+    relaxed = fk.relax(source)
+    folds = fk.refold(fk.unfold(relaxed), relaxed, frames=4)
+    options = {sheet[i][2:].replace("-", "_"): sheet[i + 1] for i in range(0, len(sheet), 2)}
+    if "tool_mass" in options:
+        options["tool_mass"] = float(options["tool_mass"])
+    program = fk.plan(folds, CELL, workdir=tmp_path / "api", **options)
+    assert program.ok, program.problems
+    assert (program.loads is not None) == bool(sheet)
+    out = tmp_path / "cli"
+    out.mkdir()
+    argv = ["toolpath", program.fold_file, "--cell", CELL, "-o", out / "path.json", "--script", out / "p.script",
+            "--report", out / "report.json", "-q", *sheet]
+    capsys.readouterr()
+    assert _cli(*argv) == 0
+    err = capsys.readouterr().err
+    assert (out / "path.json").read_bytes() == program.path_file.read_bytes()
+    assert (out / "p.script").read_text() == program.urscript()
+    report = json.loads((out / "report.json").read_text())
+    assert report == json.loads(json.dumps(program.report(str(out / "path.json"), str(out / "p.script"))))
+    assert report["input"] == str(program.fold_file) and report["ok"] and report["problems"] == []
+    for note in program.notes:  # the CLI prints the stage's notes and load warnings
+        assert f"fabkit toolpath: note: {note}" in err
+    for line in ([] if program.loads is None else program.loads.failure_lines()):
+        assert f"fabkit toolpath: warning: {line}" in err

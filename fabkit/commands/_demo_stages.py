@@ -119,7 +119,7 @@ def toolpath(run: DemoRun, done: dict) -> Outcome:
     script = run.path("program.script")
     with atomic_write(script) as fh:
         fh.write(program.urscript())
-    report["script"] = str(script)
+    report = program.report(program.path_file, script)
     step = math.degrees(program.toolpath.extra["checks"]["max_fold_joint_step_rad"])
     return Outcome(program, report, f"{len(program.toolpath)} waypoints, max fold step {fmt(step)} deg, cycle "
                                     f"{fmt(program.plan.cycle_time)} s", tolerance)

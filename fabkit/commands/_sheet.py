@@ -1,5 +1,5 @@
 """Sheet options shared by the commands that need a material (--material, --thickness, --crease,
---ligament, --bend-radius) and the toolpath's sheet records; the models are in `fabkit.sheet`."""
+--ligament, --bend-radius); the models are in `fabkit.sheet`."""
 from __future__ import annotations
 
 
@@ -26,21 +26,3 @@ def sheet_from_args(args):
 
     return sheet_of("none" if args.material is None else args.material, args.thickness, args.crease,
                     ligament=args.ligament, bend_radius=args.bend_radius)
-
-
-def toolpath_sheet_record(args, spec, design_model, compensated, cell, tp, grip_face):
-    """PATH.json's `sheet` and `payload` records for a planned toolpath (`robot.sheet_program`);
-    prints one line per exceeded load (crease, check, states, remedy). -> (toolpath with the
-    records, `robot.loads.LoadReport`)."""
-    import sys
-
-    from robot.sheet_program import sheet_records
-
-    if args.tool_mass is None:
-        print("fabkit toolpath: note: payload with an assumed 1.0 kg gripper (give --tool-mass)", file=sys.stderr)
-    tp, loads = sheet_records(tp, spec, design_model, compensated, cell, grip_face, args.tool_mass,
-                              design_surface=args.design_surface)
-    for line in loads.failure_lines():
-        print(f"fabkit toolpath: {'FAILED' if args.check_loads else 'warning'}: {line}", file=sys.stderr)
-    return tp, loads
-
