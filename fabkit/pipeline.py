@@ -90,25 +90,45 @@ def relax(panel: Panel, *, max_move: float = DEFAULT_MAX_MOVE, **options) -> Rel
 
 
 def unfold(panel: Panel | Relaxed, *, method: str = "isometric", norm: float = 2.0,
-           max_error: float | None = DEFAULT_MAX_ERROR, crease_angle: float | None = None) -> Flat:
+           max_error: float | None = DEFAULT_MAX_ERROR, crease_angle: float | None = None, material="none",
+           thickness=None, crease: str = "plain", ligament=None, bend_radius=None,
+           design_surface: str = "top") -> Flat:
     """The flat pattern (`fabkit unfold`): `method` isometric | conformal | authalic; not ok when
     the max relative length deviation exceeds `max_error`, a face flips, the outline overlaps
-    itself or the solver did not converge. `crease_angle` [deg]: see `fabkit unfold --help`."""
+    itself or the solver did not converge. `crease_angle` [deg]: see `fabkit unfold --help`.
+    With a sheet (`material`, `thickness`, ... as in `plan`) the pattern is the sheet's neutral
+    surface, `design_surface` (top | mid | bottom) the surface of the sheet the panel is; a fold
+    tighter than the material's minimum radius is refused (`InputError` naming the crease)."""
     import numpy as np
 
     from fabkit.cutfiles import crease_assignment
+    from fabkit.sheet import sheet_of
     from fabkit.unfold import develop
-    from fabkit.verdicts import development_problems
+    from fabkit.verdicts import check_unfold_options, development_problems
 
     _require_ok(panel, "unfold")
-    if max_error is not None and not (math.isfinite(max_error) and max_error > 0):
-        raise InputError(f"must be a positive number, got {max_error}", source="max_error")
+    check_unfold_options(method, norm, max_error, crease_angle)
+    spec = sheet_of(material, thickness, crease, ligament=ligament, bend_radius=bend_radius)
     mesh = panel.mesh
-    dev = develop(mesh, method=method, **({"norm": norm} if method == "isometric" else {}))
+    norm_kw = {"norm": norm} if method == "isometric" else {}
+    try:
+        dev = develop(mesh, method=method, **norm_kw)
+    except InputError as exc:
+        raise exc.with_source(panel.name) from None
     creases = crease_assignment(mesh, None if crease_angle is None else np.radians(crease_angle))
+    if not spec.rigid:  # the neutral surface of a thick sheet (fabkit.unfold.neutral, docs/sheet.md)
+        from fabkit.sheet import check_bend_radius
+        from fabkit.unfold.neutral import neutral_development
+
+        folded = np.isin(creases.edges_assignment, ["M", "V"])
+        if np.any(folded):
+            e = int(np.flatnonzero(folded)[0])
+            check_bend_radius(spec, f"crease edge {e} {tuple(int(v) for v in mesh.edges[e])}")
+        dev = neutral_development(mesh, dev, spec, folded, design_surface, **norm_kw)
     problems = development_problems(dev, max_error)
     return Flat(mesh=dev.mesh(mesh), folded=mesh, development=dev, creases=creases, name=panel.name,
-                max_error=max_error, ok=not problems, problems=tuple(problems))
+                max_error=max_error, ok=not problems, problems=tuple(problems), method=method,
+                sheet=None if spec.rigid else spec, design_surface=design_surface, loaded=panel.loaded)
 
 
 def refold(flat: Flat, target: Panel | Relaxed | None = None, *, frames: int = 20, drive="middle-row",

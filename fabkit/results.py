@@ -18,6 +18,7 @@ if TYPE_CHECKING:  # annotations only: importing a result type loads no numpy, r
     from fabkit.mesh import PolyMesh
     from fabkit.refold.sequence import FoldSequence
     from fabkit.relax.options import RelaxResult
+    from fabkit.sheet import SheetSpec
     from fabkit.unfold.development import Development
     from robot.cell import Cell
     from robot.loads import LoadReport
@@ -83,6 +84,8 @@ class Relaxed:
 
     def to_json(self) -> dict:
         """The report `fabkit relax --report` writes (without the file names)."""
+        from fabkit.verdicts import moved_too_far
+
         r, size = self.result, self.input.mesh.size
         return _jsonable({"input": self.input.name, "ok": self.ok, "problems": list(self.problems),
                           "input_summary": {"vertices": self.input.mesh.n_vertices, "faces": self.input.mesh.n_faces,
@@ -91,14 +94,16 @@ class Relaxed:
                           "loaded": None if self.loaded is None else self.loaded.to_report(),
                           "max_move": {"share": self.max_move, "limit_m": self.max_move * size,
                                        "moved_m": r.max_displacement,
-                                       "ok": r.max_displacement <= self.max_move * size}})
+                                       "ok": not moved_too_far(r, size, self.max_move)}})
 
 
 @dataclass(frozen=True, eq=False)
 class Flat:
     """`fk.unfold()`: `mesh` the flat pattern (z = 0, the panel's vertex order and tags),
     `folded` the panel it unfolds (the refold target), `development` (`fabkit.unfold.Development`:
-    uv, length deviations), `creases` (`fabkit.cutfiles.CreaseAssignment`: M/V/U per edge)."""
+    uv, length deviations), `creases` (`fabkit.cutfiles.CreaseAssignment`: M/V/U per edge),
+    `method`; for a sheet `sheet` (`fabkit.sheet.SheetSpec`: the pattern is its neutral surface)
+    and `design_surface`; `loaded` how the first panel of the chain was read."""
 
     mesh: PolyMesh
     folded: PolyMesh
@@ -108,14 +113,60 @@ class Flat:
     max_error: float | None
     ok: bool
     problems: tuple[str, ...]
+    method: str = "isometric"
+    sheet: SheetSpec | None = None
+    design_surface: str = "top"
+    loaded: LoadInfo | None = None
+
+    def sheet_summary(self) -> dict | None:
+        """The `sheet` record of the unfold report (None without a sheet)."""
+        if self.sheet is None:
+            return None
+        return {**self.sheet.summary(), "surface": "neutral", "design_surface": self.design_surface,
+                "face_up": f"{self.design_surface} face of the design (cut files are seen from it)",
+                "crease_strip_mm": self.development.details.get("crease_strip_mm")}
+
+    def cut_pattern(self, panel_id: str, label_edges: bool = False):
+        """The cut files' geometry (`fabkit.cutfiles.cut_pattern`) labelled `panel_id`, with the
+        sheet's note (thickness, material, design surface, groove side) for a sheet."""
+        from fabkit.cutfiles import cut_pattern
+
+        note = ""
+        if self.sheet is not None:
+            spec = self.sheet
+            note = (f"{spec.thickness * 1000:g} mm {spec.material.name}, design surface {self.design_surface}"
+                    + ("; grooves on the inside of each fold: valleys front, mountains back"
+                       if spec.prep.kind == "grooved" else ""))
+        return cut_pattern(self.folded, self.development.uv, self.creases, panel_id, label_edges=label_edges,
+                           sheet_note=note)
+
+    def save(self, path: str | Path, header: str = "") -> None:
+        """Write the flat pattern by suffix (`fabkit unfold -o`): .obj / .3dm the mesh (z = 0), .fold
+        the crease pattern with the folded panel as its fold state (flat + folded, what `fabkit
+        refold FLAT.fold` reads). Not atomic: the caller gives the (temporary) path."""
+        if str(path).lower().endswith(".fold"):
+            from fabkit.fold import FoldFrame, FoldModel
+            from fabkit.io.fold import save_fold
+
+            angle = self.creases.edges_fold_angle
+            model = FoldModel.from_mesh(self.mesh, self.creases.edges_assignment, angle, title=header,
+                                        frames=(FoldFrame(self.folded.vertices, angle),))
+            save_fold(model, path)
+            return
+        from fabkit.io.save import save_panel
+
+        save_panel(self.mesh, path, header=header)
 
     def to_json(self) -> dict:
         """The report `fabkit unfold --report` writes (without the file names)."""
-        return _jsonable({"format": "fabkit.unfold/1", "input": self.name, "ok": self.ok,
-                          "problems": list(self.problems), "max_error": self.max_error,
-                          "development": self.development.summary(),
-                          "creases": {"source": self.creases.source, **self.creases.counts()},
-                          "units": {"mesh": "m", "cut_files": "mm"}, "unit": "m"})
+        out = {"format": "fabkit.unfold/1", "input": self.name, "ok": self.ok, "problems": list(self.problems),
+               "max_error": self.max_error, "development": self.development.summary(),
+               "creases": {"source": self.creases.source, **self.creases.counts()},
+               "units": {"mesh": "m", "cut_files": "mm"}, "unit": "m",
+               "loaded": None if self.loaded is None else self.loaded.to_report()}
+        if self.sheet is not None:
+            out["sheet"] = self.sheet_summary()
+        return _jsonable(out)
 
 
 @dataclass(frozen=True, eq=False)

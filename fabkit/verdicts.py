@@ -48,6 +48,23 @@ def development_problems(dev, max_error: float | None = DEFAULT_MAX_ERROR) -> li
     return problems
 
 
+def check_unfold_options(method: str, norm: float, max_error: float | None, crease_angle: float | None) -> None:
+    """Refuse unfold options out of range (`InputError` naming the CLI option): `max_error` > 0,
+    `norm` >= 2 (isometric only), `crease_angle` in (0, 180) degrees."""
+    import math
+
+    from fabkit.errors import InputError
+
+    if max_error is not None and not (math.isfinite(max_error) and max_error > 0):
+        raise InputError(f"must be a positive number, got {max_error}", source="--max-error")
+    if not (math.isfinite(norm) and norm >= 2):
+        raise InputError(f"must be a number >= 2, got {norm}", source="--norm")
+    if norm != 2 and method != "isometric":
+        raise InputError("only the isometric method has a spring-energy exponent", source="--norm")
+    if crease_angle is not None and not (math.isfinite(crease_angle) and 0 < crease_angle < 180):
+        raise InputError(f"must be in (0, 180) degrees, got {crease_angle}", source="--crease-angle")
+
+
 #: default largest distance of the last refolded state to the target, relative to the panel size
 DEFAULT_TARGET_RTOL = 1e-6
 

@@ -8,7 +8,7 @@ from fabkit.commands._common import add_common, progress, say, write_report
 from fabkit.commands._loading import add_units, load_panel_for
 from fabkit.errors import InputError
 
-from fabkit.verdicts import DEFAULT_MAX_MOVE, moved_too_far, relax_problems
+from fabkit.verdicts import DEFAULT_MAX_MOVE
 
 HELP = """Relax a quad mesh toward a developable, planar-quad panel (paper §2.2-2.7): zero angle defect
 (2π − Σθ) at every interior vertex and every face vertex on its face's best-fit plane.
@@ -107,85 +107,32 @@ def plan_files(args, plan) -> None:
     plan.output(args.report, "--report")
 
 
-def _kept_edges(mesh, path, keep_boundary: bool) -> dict:
-    """{edge id: length} from --keep-boundary-lengths and --edge-lengths FILE (the file wins on overlap)."""
-    import numpy as np
-
-    from fabkit.io.jsonfile import load_json
-    from fabkit.io.validate import check_coordinates
-
-    kept: dict[int, float] = {}
-    if keep_boundary:
-        ids = np.flatnonzero(mesh.topology.boundary_edge_mask)
-        kept.update(zip(ids.tolist(), mesh.edge_lengths[ids].tolist()))
-    if path is None:
-        return kept
-    data = load_json(path, "JSON edge-length file")
-    if not isinstance(data, dict) or not {"edges", "lengths"} <= set(data):
-        raise InputError('expected an object {"edges": [[u, v], ...], "lengths": [...]}', source=path)
-    try:
-        pairs = np.asarray(data["edges"], dtype=np.float64)
-        lengths = np.asarray(data["lengths"], dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError('"edges" must be pairs of vertex ids and "lengths" numbers', source=path) from None
-    if pairs.ndim != 2 or pairs.shape[1] != 2 or lengths.ndim != 1 or len(lengths) != len(pairs):
-        raise InputError(f'"edges" must be a list of [u, v] pairs with one length each (got {len(lengths)} '
-                         f"lengths for {len(pairs) if pairs.ndim == 2 else '?'} edges)", source=path)
-    check_coordinates(lengths, path, "edge length")
-    if not np.all(np.isfinite(pairs) & (pairs == np.round(pairs))):
-        raise InputError('"edges" must hold integer vertex ids', source=path)
-    ids = mesh.topology.edge_ids(pairs.astype(np.int64))
-    for (u, v), e, length in zip(pairs.astype(np.int64).tolist(), ids.tolist(), lengths.tolist()):
-        if e < 0:
-            raise InputError(f"[{u}, {v}] is not an edge of {mesh.n_vertices}-vertex mesh", source=path)
-        if not (np.isfinite(length) and length > 0):
-            raise InputError(f"edge [{u}, {v}]: length must be a positive number of metres, got {length}",
-                             source=path)
-        kept[e] = float(length)
-    return kept
-
-
 def run(args) -> int:
+    from fabkit.io.edge_lengths import kept_edge_lengths
     from fabkit.io.save import save_panel
-    from fabkit.relax import Relaxer, RelaxOptions
+    from fabkit.pipeline import relax
+    from fabkit.results import Panel
 
     if not (args.max_move > 0):
         raise InputError(f"must be a positive share of the panel size, got {args.max_move}", source="--max-move")
     mesh, loaded = load_panel_for(args, args.input)
-    try:
-        options = RelaxOptions(
-            method=args.method, tol_defect=args.tol_defect, tol_planarity=args.tol_planarity,
-            tol_force=args.tol_force, max_iter=args.max_iter, newton_max_iter=args.newton_max_iter,
-            boundary=args.boundary, row_width=args.row_width, fixed=tuple(args.fixed), stage=args.stage,
-            stage_defect=args.stage_defect, closeness=args.closeness, planarity_weight=args.planarity_weight,
-            plane_method=args.plane, damping=args.damping, finish=not args.no_finish,
-            fallback=not args.no_fallback, max_seconds=args.max_seconds, crease_fairness=args.crease_fairness,
-            edge_lengths=_kept_edges(mesh, args.edge_lengths, args.keep_boundary_lengths))
-    except ValueError as exc:
-        raise InputError(str(exc), source="options") from None
-    solver = Relaxer(mesh, options, source=str(args.input))
+    options = dict(
+        method=args.method, tol_defect=args.tol_defect, tol_planarity=args.tol_planarity,
+        tol_force=args.tol_force, max_iter=args.max_iter, newton_max_iter=args.newton_max_iter,
+        boundary=args.boundary, row_width=args.row_width, fixed=tuple(args.fixed), stage=args.stage,
+        stage_defect=args.stage_defect, closeness=args.closeness, planarity_weight=args.planarity_weight,
+        plane_method=args.plane, damping=args.damping, finish=not args.no_finish,
+        fallback=not args.no_fallback, max_seconds=args.max_seconds, crease_fairness=args.crease_fairness,
+        edge_lengths=kept_edge_lengths(mesh, args.edge_lengths, args.keep_boundary_lengths))
     with progress(args, f"relaxing {args.input}") as advance:
-        result = solver.solve()
+        relaxed = relax(Panel(mesh=mesh, name=str(args.input), loaded=loaded), max_move=args.max_move, **options)
         advance(1)
-    limit = args.max_move * mesh.size
-    problems = relax_problems(result, mesh.size, args.max_move)
-    ok = not problems
+    result, problems, ok = relaxed.result, relaxed.problems, relaxed.ok
     written = ok or args.write_unconverged
     if written:
         save_panel(result.mesh, args.output)
-    report = {
-        "input": str(args.input),
-        "output": str(args.output) if written else None,
-        "input_summary": {"vertices": mesh.n_vertices, "faces": mesh.n_faces,
-                          "interior_vertices": int(mesh.interior_vertex_mask.sum())},
-        **result.to_report(),
-        "unit": "m",
-        "loaded": loaded.to_report(),
-        "max_move": {"share": args.max_move, "limit_m": limit, "moved_m": result.max_displacement,
-                     "ok": not moved_too_far(result, mesh.size, args.max_move)},
-    }
-    report["options"] = dataclasses.asdict(options)
-    write_report(args, report)
+    write_report(args, {**relaxed.to_json(), "output": str(args.output) if written else None,
+                        "options": dataclasses.asdict(result.options)})
     phases = ", ".join(f"{k} {v}" for k, v in result.phase_iterations.items()) or "none needed"
     summary = (f"max |angle defect| {result.max_defect:.3g} rad, max planarity {result.max_planarity:.3g}, "
                f"moved max {result.max_displacement * 1e3:.3g} mm / mean {result.mean_displacement * 1e3:.3g} mm, "

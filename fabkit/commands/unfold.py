@@ -2,14 +2,13 @@
 from __future__ import annotations
 
 import contextlib
-import math
 import sys
 from pathlib import Path
 
 from fabkit.commands._common import add_common, progress, say, to_jsonable
 from fabkit.commands._loading import add_units, load_panel_for
 
-from fabkit.verdicts import DEFAULT_MAX_ERROR, development_problems
+from fabkit.verdicts import DEFAULT_MAX_ERROR
 
 HELP = """Unfold a panel into its flat pattern (paper §2.8, §3.3) and write cut files.
 
@@ -79,15 +78,9 @@ def plan_files(args, plan) -> None:
 
 def _check_args(args) -> None:
     from fabkit.errors import InputError
+    from fabkit.verdicts import check_unfold_options
 
-    if args.max_error is not None and not (math.isfinite(args.max_error) and args.max_error > 0):
-        raise InputError(f"must be a positive number, got {args.max_error}", source="--max-error")
-    if not (math.isfinite(args.norm) and args.norm >= 2):
-        raise InputError(f"must be a number >= 2, got {args.norm}", source="--norm")
-    if args.norm != 2 and args.method != "isometric":
-        raise InputError("only the isometric method has a spring-energy exponent", source="--norm")
-    if args.crease_angle is not None and not (math.isfinite(args.crease_angle) and 0 < args.crease_angle < 180):
-        raise InputError(f"must be in (0, 180) degrees, got {args.crease_angle}", source="--crease-angle")
+    check_unfold_options(args.method, args.norm, args.max_error, args.crease_angle)
     outputs = [p for p in (args.output, args.dxf, args.svg, args.png, args.report) if p]
     resolved = [Path(p).resolve() for p in outputs]
     if len(set(resolved)) != len(resolved):
@@ -101,92 +94,30 @@ def _check_args(args) -> None:
             raise InputError("is a directory, not a file name", source=p)
 
 
-def _write_flat(flat, folded, assignment, path, header: str) -> None:
-    """FLAT by suffix; a .fold gets the folded panel as its fold state (flat + folded)."""
-    if str(path).lower().endswith(".fold"):
-        from fabkit.fold import FoldFrame, FoldModel
-        from fabkit.io.fold import save_fold
-
-        angle = assignment.edges_fold_angle
-        model = FoldModel.from_mesh(flat, assignment.edges_assignment, angle, title=header,
-                                    frames=(FoldFrame(folded.vertices, angle),))
-        save_fold(model, path)
-        return
-    from fabkit.io.save import save_panel
-
-    save_panel(flat, path, header=header)
-
-
 def run(args) -> int:
-    import numpy as np
-
     from fabkit.commands._common import write_json
-    from fabkit.cutfiles import crease_assignment, cut_pattern, dxf_document, svg_text
-    from fabkit.errors import InputError
+    from fabkit.cutfiles import dxf_document, svg_text
     from fabkit.io.atomic import atomic_path
-    from fabkit.unfold import develop
+    from fabkit.pipeline import unfold
+    from fabkit.results import Panel
     from fabkit.unfold.plot import plot_unfold_error
 
     _check_args(args)
     mesh, loaded = load_panel_for(args, args.input)
     with progress(args, f"unfolding ({args.method})", total=None):
-        try:
-            dev = develop(mesh, method=args.method, **({"norm": args.norm} if args.method == "isometric" else {}))
-        except InputError as exc:
-            raise exc.with_source(args.input) from None
+        flat = unfold(Panel(mesh=mesh, name=str(args.input), loaded=loaded), method=args.method, norm=args.norm,
+                      max_error=args.max_error, crease_angle=args.crease_angle, material=args.material,
+                      thickness=args.thickness, crease=args.crease, ligament=args.ligament,
+                      bend_radius=args.bend_radius, design_surface=args.design_surface)
+    dev, assignment, problems = flat.development, flat.creases, list(flat.problems)
     panel_id = args.panel_id if args.panel_id is not None else Path(args.input).stem
-    assignment = crease_assignment(mesh, None if args.crease_angle is None else np.radians(args.crease_angle))
-    # ---- sheet hook: develop the neutral surface of a thick sheet (fabkit.unfold.neutral) ----
-    from fabkit.commands._sheet import sheet_from_args
-
-    spec = sheet_from_args(args)
-    sheet_report = None
-    if not spec.rigid:
-        from fabkit.sheet import check_bend_radius
-        from fabkit.unfold.neutral import neutral_development
-
-        folded = np.isin(assignment.edges_assignment, ["M", "V"])
-        if np.any(folded):
-            e = int(np.flatnonzero(folded)[0])
-            check_bend_radius(spec, f"crease edge {e} {tuple(int(v) for v in mesh.edges[e])}")
-        with progress(args, "neutral-surface development", total=None):
-            dev = neutral_development(mesh, dev, spec, folded, args.design_surface,
-                                      **({"norm": args.norm} if args.method == "isometric" else {}))
-        sheet_report = {**spec.summary(), "surface": "neutral", "design_surface": args.design_surface,
-                        "face_up": f"{args.design_surface} face of the design (cut files are seen from it)",
-                        "crease_strip_mm": dev.details.get("crease_strip_mm")}
-    # ---- end of sheet hook ----
-    note = "" if sheet_report is None else (f"{spec.thickness * 1000:g} mm {spec.material.name}, design surface "
-                                           f"{args.design_surface}" + ("; grooves on the inside of each fold: "
-                                                                       "valleys front, mountains back"
-                                                                       if spec.prep.kind == "grooved" else ""))
-    pattern = cut_pattern(mesh, dev.uv, assignment, panel_id, label_edges=args.label_edges, sheet_note=note) \
-        if (args.dxf or args.svg) else None
-
-    problems = development_problems(dev, args.max_error)
-
+    pattern = flat.cut_pattern(panel_id, label_edges=args.label_edges) if (args.dxf or args.svg) else None
     outputs = {"mesh": args.output, "dxf": args.dxf, "svg": args.svg, "png": args.png}
-    report = {
-        "format": "fabkit.unfold/1",
-        "input": str(args.input),
-        "panel_id": panel_id,
-        "outputs": {k: v for k, v in outputs.items() if v},
-        "ok": not problems,
-        "problems": problems,
-        "max_error": args.max_error,
-        "development": dev.summary(),
-        "creases": {"source": assignment.source, **assignment.counts()},
-        "units": {"mesh": "m", "cut_files": "mm"},
-        "unit": "m",
-        "loaded": loaded.to_report(),
-    }
-    if sheet_report is not None:
-        report["sheet"] = sheet_report
+    report = {**flat.to_json(), "panel_id": panel_id, "outputs": {k: v for k, v in outputs.items() if v}}
     # Every output goes to a temporary file first; all are renamed only when all were written.
     with contextlib.ExitStack() as stack:
         tmp = {k: stack.enter_context(atomic_path(v)) for k, v in outputs.items() if v}
-        _write_flat(dev.mesh(mesh), mesh, assignment, tmp["mesh"],
-                    f"flat pattern of {args.input} ({args.method}, metres, z = 0)")
+        flat.save(tmp["mesh"], f"flat pattern of {args.input} ({args.method}, metres, z = 0)")
         if args.dxf:
             dxf_document(pattern).saveas(tmp["dxf"])
         if args.svg:
