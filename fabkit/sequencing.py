@@ -17,8 +17,9 @@ other clamped faces must not move), and set creases must keep their angles. Two 
   the phase fails naming it.
 
 Plans are scored by (phases, regrips, jig holds); the planner's reachability, clearance and cycle
-time come on top of this later. Strips and crease rows come from the panel's strip tags through
-`fabkit.holds.crease_rows` (one narrow place to swap for a panel-structure module).
+time come on top of this later. Strips, crease rows and the middle row come from the panel
+structure (`fabkit.structure`: tags where the panel has them, else inferred from the target), so an
+untagged panel is planned like a tagged one.
 """
 from __future__ import annotations
 
@@ -104,14 +105,10 @@ class FoldPlan:
                            for p in self.phases]}
 
 
-def _strips(flat, panel) -> tuple[np.ndarray, dict]:
-    """Face strip tags and crease rows (narrow: the panel-structure module replaces this)."""
-    if "strip" not in flat.face_data:
-        raise InputError("fold sequencing needs the crease rows: FLAT has no face_data 'strip' tags", source="FLAT")
-    strip = np.asarray(flat.face_data["strip"], np.int64)
-    rows = {int(k): np.flatnonzero((panel.edge_kind == 1) & (panel.edge_crease == k))
+def _crease_rows(panel) -> dict:
+    """{crease row k: hinge ids} of refold's triangulated panel (rows from `fabkit.structure`)."""
+    return {int(k): np.flatnonzero((panel.edge_kind == 1) & (panel.edge_crease == k))
             for k in np.unique(panel.edge_crease[panel.edge_crease >= 0])}
-    return strip, rows
 
 
 def _face_in_strip(flat, strip: np.ndarray, k: int, choose) -> int:
@@ -176,15 +173,19 @@ def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, fr
     """
     if arms not in (1, 2):
         raise ValueError(f"arms must be 1 or 2, got {arms}")
-    if clamp_face is None and "strip" in flat.face_data:
+    from fabkit.structure import pair_structure
+
+    structure = pair_structure(flat, target)  # strips and middle row: tagged, or inferred from the target
+    flat = structure.with_tags(flat)           # as tags 0..k-1, which the face choices below read
+    if clamp_face is None:
         clamp_face = choose_clamp_face(flat)   # order-independent (refold's default takes the first tagged)
-    solver = RefoldSolver(flat, target, fixed_face=clamp_face)
-    strip, rows = _strips(flat, solver.panel)
+    solver = RefoldSolver(flat, target, fixed_face=clamp_face, structure=structure)
+    strip, rows = np.asarray(solver.structure.strip, np.int64), _crease_rows(solver.panel)
     if not rows:
         raise InputError("the panel has no crease rows to fold", source="FLAT")
     clamp = solver.fixed_face
     cs = int(strip[clamp])
-    driven, _ = solver.driven_hinges("middle-row" if "middle" in flat.face_data else "all")
+    driven, _ = solver.driven_hinges("middle-row")  # the middle row's creases, tagged or inferred (as refold)
     pick = {k: _face_in_strip(flat, strip, k, choose_face) for k in np.unique(strip)}
     cup_problems: list[str] = []
     if cup_radius is not None:

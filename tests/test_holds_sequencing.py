@@ -80,11 +80,34 @@ def test_reflect_two_creases():
     assert not seq1.ok and any("set in an earlier phase" in p or "coupled" in p for p in seq1.problems)
 
 
-def test_refuses_untagged_panels_and_bad_arms():
+def _untagged_permuted(mesh, vperm, fperm):
+    """`mesh` without tags, its vertices renumbered by `vperm` (new id of old vertex v: vperm[v])
+    and its faces in the order `fperm`."""
+    V = np.empty_like(mesh.vertices)
+    V[vperm] = mesh.vertices
+    return PolyMesh(V, [[int(vperm[v]) for v in mesh.faces_list()[f]] for f in fperm])
+
+
+def test_untagged_permuted_panels_get_the_tagged_plan(trifold_two_arms):
+    """Strips, crease rows and the middle row come from `fabkit.structure`: a plain panel (no tags,
+    vertices and faces shuffled) gets the tagged panel's plan, face for face."""
+    flat, target = trifold_pair()
+    rng = np.random.default_rng(7)
+    vperm, fperm = rng.permutation(flat.n_vertices), rng.permutation(flat.n_faces)
+    plan = plan_fold_sequence(_untagged_permuted(flat, vperm, fperm), _untagged_permuted(target, vperm, fperm),
+                              arms=2, frames=4)
+    assert plan.ok and plan.strategy == trifold_two_arms.strategy == "together"
+    (ours,), (tagged,) = plan.phases, trifold_two_arms.phases
+    assert [int(fperm[f]) for f in ours.clamped_faces] == list(tagged.clamped_faces)
+    assert sorted(int(fperm[f]) for _, f in ours.grips) == sorted(f for _, f in tagged.grips)
+    assert ours.creases == tagged.creases
+
+
+def test_refuses_panels_without_creases_and_bad_arms():
     flat, target = letter_pair(120.0)
     plain = PolyMesh(flat.vertices, flat.faces_list())
-    with pytest.raises(InputError, match="strip"):
-        plan_fold_sequence(plain, PolyMesh(target.vertices, target.faces_list()))
+    with pytest.raises(InputError, match="no crease rows"):
+        plan_fold_sequence(plain, plain)  # flat onto flat: nothing to fold, no crease to find
     with pytest.raises(ValueError, match="arms"):
         plan_fold_sequence(flat, target, arms=3)
 

@@ -150,11 +150,14 @@ def _finish(path: str, fmt: str, V, faces, face_data, vertex_data, unit: str, ho
         face_data = {k: np.asarray(a)[first] for k, a in face_data.items() if k != "assignment"}
         faces = m.faces
     if sides is not None:
-        tags = side_assignments(faces, sides)
-        face_data = {**tags, **face_data} if "strip" in face_data else {**face_data, **tags}
-        face_data["assignment"] = tags["assignment"]
+        face_data = {**face_data, **side_assignments(faces, sides)}
     try:
         mesh = PolyMesh(V, faces, face_data=face_data, vertex_data=vertex_data, validate=False)
+        if sides is not None and "strip" not in face_data:  # the file's strip tags win
+            strip = _strips_of_sides(mesh, sides)
+            if strip is not None:
+                mesh = PolyMesh(V, faces, face_data={**face_data, "strip": strip}, vertex_data=vertex_data,
+                                validate=False)
         mesh.warnings = validate_mesh(mesh, source=path)
     except MeshError as exc:
         raise located(exc) if not (welded or m.merged) else exc.with_source(path) from None
@@ -169,33 +172,21 @@ def _finish(path: str, fmt: str, V, faces, face_data, vertex_data, unit: str, ho
 
 
 def side_assignments(faces: list, sides: dict) -> dict[str, np.ndarray]:
-    """`{(u, v): letter}` edge assignments -> `face_data["assignment"]` (one letter per face side) and,
-    when there is a crease (interior M, V or U), `face_data["strip"]` (pieces between creases)."""
-    letters = []
-    for f in faces:
-        letters.append("".join(sides.get((min(a, b), max(a, b)), "U") for a, b in zip(f, f[1:] + f[:1])))
-    out = {"assignment": np.array(letters)}
-    crease_edges = {e for e, c in sides.items() if c in "MVU"}
-    owners: dict[tuple[int, int], list[int]] = {}
-    for k, f in enumerate(faces):
-        for a, b in zip(f, f[1:] + f[:1]):
-            owners.setdefault((min(a, b), max(a, b)), []).append(k)
-    inner_creases = [e for e in crease_edges if len(owners.get(e, [])) == 2]
-    if inner_creases:
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components
+    """`{(u, v): letter}` edge assignments -> `face_data["assignment"]`: one FOLD letter per face
+    side (side k from corner k to corner k+1; U where the file says nothing)."""
+    letters = ["".join(sides.get((min(a, b), max(a, b)), "U") for a, b in zip(f, f[1:] + f[:1])) for f in faces]
+    return {"assignment": np.array(letters)}
 
-        pairs = [fs for e, fs in owners.items() if len(fs) == 2 and e not in crease_edges]
-        a = np.array([p[0] for p in pairs], dtype=np.int64)
-        b = np.array([p[1] for p in pairs], dtype=np.int64)
-        g = coo_matrix((np.ones(len(a)), (a, b)), shape=(len(faces), len(faces)))
-        _, label = connected_components(g, directed=False)
-        # number the pieces in the order of their lowest face id
-        first = {}
-        for k, lab in enumerate(label.tolist()):
-            first.setdefault(lab, len(first))
-        out["strip"] = np.array([first[lab] for lab in label.tolist()], dtype=np.int64)
-    return out
+
+def _strips_of_sides(mesh: PolyMesh, sides: dict) -> np.ndarray | None:
+    """`face_data["strip"]` from a file's crease assignments (interior M, V or U edges), numbered
+    by `fabkit.structure.strips_of_creases` (the same strips as for creases inferred from the
+    geometry); None when no interior edge is a crease."""
+    from fabkit.structure import strips_of_creases
+
+    crease = np.array([sides.get((int(min(u, v)), int(max(u, v))), "") in ("M", "V", "U") for u, v in mesh.edges],
+                      dtype=bool) & ~mesh.topology.boundary_edge_mask
+    return strips_of_creases(mesh, crease) if crease.any() else None
 
 
 def _fold_sides(model) -> dict:

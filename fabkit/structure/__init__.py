@@ -23,7 +23,8 @@ from fabkit.structure.creases import CreaseDetection, chain_edges, chain_fold_an
 from fabkit.structure.layout import (comes_first, geometric_key, middle_row_faces, order_strips, quad_ribbons,
                                      strip_components)
 
-__all__ = ["PanelStructure", "panel_structure", "pair_structure", "crease_mask", "chain_edges", "detect_creases", "FLAT_ANGLE"]
+__all__ = ["PanelStructure", "panel_structure", "pair_structure", "crease_mask", "strips_of_creases", "crease_rows",
+           "chain_edges", "detect_creases", "FLAT_ANGLE"]
 
 #: The face tags that carry structure (docs/CONTRACTS.md "Panel tags").
 TAG_NAMES = ("strip", "column", "middle")
@@ -104,12 +105,20 @@ def crease_mask(mesh: PolyMesh) -> np.ndarray:
     return _creases_and_strips(mesh, mesh.face_data, dihedral_angles(mesh))[0]
 
 
+def strips_of_creases(mesh: PolyMesh, crease: np.ndarray) -> np.ndarray:
+    """Strip number (F,) 0..k-1 of every face: the regions no crease edge (`crease` (E,) bool)
+    separates, numbered along the strip adjacency from geometry alone (`layout.order_strips`), so
+    the numbers do not depend on vertex or face order."""
+    crease = np.asarray(crease, bool)
+    return order_strips(mesh, strip_components(mesh, crease), crease)
+
+
 def _creases_and_strips(mesh: PolyMesh, fd, angle, crease_edges=None):
     """(crease (E,), strip (F,) 0..k-1, oriented chains, detection or None, source)."""
     if crease_edges is not None and "strip" not in fd:
         given = np.zeros(mesh.n_edges, bool)
         given[np.asarray(crease_edges, np.int64)] = True
-        strip = order_strips(mesh, strip_components(mesh, given), given)
+        strip = strips_of_creases(mesh, given)
         crease = _strip_crease(mesh, strip)
         return crease, strip, _oriented_chains(mesh, crease, None), None, "assignments"
     if "strip" in fd:
@@ -118,7 +127,7 @@ def _creases_and_strips(mesh: PolyMesh, fd, angle, crease_edges=None):
         strip = np.searchsorted(np.unique(raw), raw)
         return crease, strip, _oriented_chains(mesh, crease, None), None, "tags"
     detection = detect_creases(mesh, angle)
-    strip = order_strips(mesh, strip_components(mesh, detection.crease), detection.crease)
+    strip = strips_of_creases(mesh, detection.crease)
     crease = _strip_crease(mesh, strip)  # a chain that separates nothing is not a crease
     kept = [c for c in detection.chains if crease[mesh.topology.edge_ids([[c[0], c[1]]])[0]]]
     return crease, strip, _oriented_chains(mesh, crease, kept), detection, "inferred"
