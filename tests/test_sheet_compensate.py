@@ -138,3 +138,24 @@ def test_a_foreign_sequence_keeps_its_own_panel_frame(straight_seq):
     ref = compensate_sequence(straight_seq, spec)
     want = R.apply(np.array(ref.model.frames[-1].vertices_coords)) + [0.5, -0.2, 0.1]
     np.testing.assert_allclose(np.asarray(c.model.frames[-1].vertices_coords), want, atol=1e-9)
+
+
+def test_crease_rows_without_row_tags_are_the_structures(reflect_seq):
+    """Without `edges_fabkit:crease` the rows come from `fabkit.structure` (the strips between the
+    crease edges): the same rows refold wrote, also with another edge order."""
+    tagged = panel_creases(reflect_seq)
+    kind = np.asarray(reflect_seq.edges_data["kind"])
+    E = reflect_seq.n_edges
+    perm = np.random.default_rng(5).permutation(E)
+    for model, edge_of in ((replace(reflect_seq, edges_data={"kind": kind}), np.arange(E)),
+                           (replace(reflect_seq, edges_vertices=np.asarray(reflect_seq.edges_vertices)[perm][:, ::-1],
+                                    edges_assignment=np.asarray(reflect_seq.edges_assignment)[perm],
+                                    edges_fold_angle=np.asarray(reflect_seq.edges_fold_angle)[perm],
+                                    edges_data={"kind": kind[perm]},
+                                    frames=tuple(replace(f, edges_fold_angle=None, data={})
+                                                 for f in reflect_seq.frames)), perm)):
+        bare = panel_creases(model)
+        assert [k.name for k in bare] == [k.name for k in tagged] == ["crease 0", "crease 1"]
+        for k, t in zip(bare, tagged):
+            assert sorted(edge_of[k.edges].tolist()) == sorted(t.edges.tolist())
+            assert k.length == pytest.approx(t.length, rel=1e-12) and k.kappa_g == pytest.approx(t.kappa_g, rel=1e-9)

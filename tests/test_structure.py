@@ -131,3 +131,33 @@ def test_given_crease_edges_win_over_the_geometry():
     s = panel_structure(flat, crease_edges=np.flatnonzero(truth))
     assert np.array_equal(s.crease, truth) and s.n_strips == 3 and s.source["creases"] == "assignments"
     assert set(s.assignment[truth]) == {"U"} and len(s.middle_row) == 3
+
+
+def test_strips_of_a_fold_files_assignments_are_the_structures(tmp_path):
+    """A FOLD file without strip tags: the loader's strips come from its M/V edges through
+    `fabkit.structure` - the tagged panel's strips (as regions), the numbers `panel_structure` gives
+    for those creases, and the same faces for any vertex and face order."""
+    import json
+
+    from fabkit.io.load import load_panel
+
+    tagged = reflect_tagged(2, 60.0)
+    truth = panel_structure(tagged)
+    loaded = []
+    for seed in (None, 1, 2):
+        mesh, new_of_old, order = (tagged, np.arange(tagged.n_vertices), np.arange(tagged.n_faces)) if seed is None \
+            else shuffled(tagged, seed)
+        s = panel_structure(mesh)
+        doc = {"file_spec": 1.2, "frame_classes": ["foldedForm"], "vertices_coords": mesh.vertices.tolist(),
+               "faces_vertices": mesh.faces_list(), "edges_vertices": mesh.edges.tolist(),
+               "edges_assignment": s.assignment.tolist()}
+        path = tmp_path / f"panel{seed}.fold"
+        path.write_text(json.dumps(doc))
+        got, _ = load_panel(path)
+        strip = np.asarray(got.face_data["strip"])
+        assert np.array_equal(strip, panel_structure(plain(got), crease_edges=np.flatnonzero(s.crease)).strip)
+        # the same regions as the tags (one label per tagged strip, and back)
+        pairs = set(zip(np.asarray(tagged.face_data["strip"])[order].tolist(), strip.tolist()))
+        assert len(pairs) == truth.n_strips == len({b for _, b in pairs})
+        loaded.append(strip[np.argsort(order)])  # per original face
+    assert all(np.array_equal(loaded[0], other) for other in loaded[1:])

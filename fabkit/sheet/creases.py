@@ -2,7 +2,8 @@
 geodesic curvature and the width of the panels beside them.
 
 Crease edges: `edges_fabkit:kind` == 1 when present (fabkit's refold output), else every M/V edge.
-Rows: `edges_fabkit:crease` when present, else the connected chains of crease edges. Curvature:
+Rows: `edges_fabkit:crease` when present, else the crease rows of the panel structure
+(`fabkit.structure`: the strips between the crease edges, a row the lower strip of its sides). Curvature:
 total turning of the row's flat polyline / its length (the mean geodesic curvature; exact for the
 circular arcs of the reflect preset). Panel width b: the mean area of the two strips beside the
 row / its length with strip tags; else panel area / ((rows + 1) x row length).
@@ -12,8 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 __all__ = ["Crease", "panel_creases", "ArmFold", "arm_folds"]
 
@@ -50,6 +49,23 @@ def _turning(V, edges) -> float:
     return total
 
 
+def _structure_rows(model, ids: np.ndarray) -> np.ndarray:
+    """Crease row (0..r-1) of each crease edge `ids` of a FOLD file without row tags: the strips
+    between its creases (`fabkit.structure.strips_of_creases`, the numbering refold writes into
+    `edges_fabkit:crease`), each row the lower strip of its two sides, renumbered 0..r-1."""
+    from fabkit.structure import strips_of_creases
+
+    mesh = model.mesh(validate=False)
+    e = np.asarray(model.mesh_edge_index)[ids]
+    crease = np.zeros(mesh.n_edges, bool)
+    crease[e] = True
+    crease &= ~mesh.topology.boundary_edge_mask
+    strip = strips_of_creases(mesh, crease)
+    ef = np.maximum(mesh.topology.edge_faces[e], 0)
+    low = np.minimum(strip[ef[:, 0]], strip[ef[:, 1]])
+    return np.unique(low, return_inverse=True)[1]
+
+
 def panel_creases(model) -> tuple[Crease, ...]:
     """The crease rows of a `FoldModel` (module docstring), sorted by row."""
     V = np.asarray(model.vertices_coords)
@@ -66,11 +82,7 @@ def panel_creases(model) -> tuple[Crease, ...]:
     if row_tag is not None and np.all(np.asarray(row_tag)[ids] >= 0):
         rows = np.asarray(row_tag, np.int64)[ids]
     else:
-        n = len(V)
-        a, b = ev[ids, 0], ev[ids, 1]
-        g = coo_matrix((np.ones(len(ids)), (a, b)), shape=(n, n))
-        _, lab = connected_components(g, directed=False)
-        _, rows = np.unique(lab[a], return_inverse=True)
+        rows = _structure_rows(model, ids)
     areas = np.asarray(model.mesh(validate=False).face_areas)  # the key frame: the flat pattern
     strip = model.faces_data.get("strip")
     out = []
