@@ -8,9 +8,17 @@ shared machine the wall time also counts the waits for a free core, which the CP
 `ok` compares the CPU time with the target, `ok_wall` the wall time. A last row says which heavy
 packages a no-op relax imports (none of scipy, ezdxf, matplotlib, mujoco is needed for it); the
 row `import numpy` is the floor of every command that reads a mesh (the no-op relax needs numpy).
+
+Bytecode: the commands run as an installed fabkit runs, from compiled bytecode (a private
+`PYTHONPYCACHEPREFIX` in a temporary folder, warmed by one run of each command; the environment's
+`PYTHONDONTWRITEBYTECODE` is lifted for the children). The row "no bytecode cache" runs the no-op
+relax compiling every module from source each time, as in an environment that forbids bytecode:
+that costs about 0.15 s CPU more. The load average (1 min) before and after the run is printed and
+stored: under a load above the core count the wall times mostly count waits.
 """
 from __future__ import annotations
 
+import os
 import re
 import resource
 import subprocess
@@ -26,13 +34,28 @@ NOOP_RELAX_TARGET_S = 0.5
 HEAVY = ("scipy", "ezdxf", "matplotlib", "mujoco", "trimesh", "shapely", "rich", "robot", "sim")
 
 
-def _timed(args: list[str], repeat: int) -> tuple[float, float]:
-    """Best (wall, CPU) seconds of `repeat` runs of `args`."""
+def _child_env(cache: str, write: bool = True) -> dict:
+    """The environment of a timed command: bytecode in the folder `cache` (written when `write`)."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPYCACHEPREFIX"] = cache
+    if not write:
+        env["PYTHONDONTWRITEBYTECODE"] = "1"
+    return env
+
+
+ENV: dict = {}  # set by main(): the children's environment
+
+
+def _timed(args: list[str], repeat: int, env: dict | None = None) -> tuple[float, float]:
+    """Best (wall, CPU) seconds of `repeat` runs of `args` (after one untimed run that warms the
+    bytecode cache)."""
+    env = ENV if env is None else env
+    subprocess.run(args, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=120, env=env)
     wall = cpu = float("inf")
     for _ in range(repeat):
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
-        subprocess.run(args, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=60)
+        subprocess.run(args, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=60, env=env)
         wall = min(wall, time.perf_counter() - t0)
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = min(cpu, after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
@@ -41,7 +64,7 @@ def _timed(args: list[str], repeat: int) -> tuple[float, float]:
 
 def _subcommands() -> list[str]:
     text = subprocess.run([sys.executable, "-m", "fabkit", "--help"], check=True, capture_output=True,
-                          text=True, timeout=60).stdout
+                          text=True, timeout=60, env=ENV or None).stdout
     block = text.split("positional arguments:", 1)[1].split("options:", 1)[0]
     return re.findall(r"^    (\w+)\s", block, flags=re.MULTILINE)
 
@@ -49,20 +72,31 @@ def _subcommands() -> list[str]:
 def _heavy_imports(args: list[str]) -> list[str]:
     """The top-level packages of `HEAVY` that `python -X importtime` shows for `args`."""
     err = subprocess.run([sys.executable, "-X", "importtime", *args], capture_output=True, text=True,
-                         timeout=120).stderr
+                         timeout=120, env=ENV or None).stderr
     names = {line.rsplit("|", 1)[-1].strip().split(".")[0] for line in err.splitlines() if "|" in line}
     return sorted(names & set(HEAVY))
 
 
 def main() -> dict:
+    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as empty:
+        ENV.clear()
+        ENV.update(_child_env(cache))
+        try:
+            return _run(_child_env(empty, write=False))
+        finally:
+            ENV.clear()
+
+
+def _run(no_cache_env: dict) -> dict:
+    load_before = os.getloadavg()[0]
     py = sys.executable
     fabkit = [py, "-m", "fabkit"]
     base_wall, base_cpu = _timed([py, "-c", "pass"], repeat=5)
     rows = [{"command": "python -c pass", "wall_s": base_wall, "cpu_s": base_cpu, "wall_ratio": 1.0,
              "cpu_ratio": 1.0, "target_s": "", "ok": "", "ok_wall": ""}]
 
-    def row(label: str, args: list[str], target: float | None) -> None:
-        wall, cpu = _timed(args, repeat=3)
+    def row(label: str, args: list[str], target: float | None, env: dict | None = None) -> None:
+        wall, cpu = _timed(args, repeat=3, env=env)
         rows.append({"command": label, "wall_s": wall, "cpu_s": cpu, "wall_ratio": wall / base_wall,
                      "cpu_ratio": cpu / base_cpu if base_cpu > 0 else float("nan"), "target_s": target or "",
                      "ok": "" if target is None else cpu <= target, "ok_wall": "" if target is None else wall <= target})
@@ -74,11 +108,15 @@ def main() -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         panel = Path(tmp) / "reflect.obj"  # the reflect preset is exactly developable: relax leaves it
         subprocess.run(fabkit + ["generate", "reflect", "-o", str(panel)], check=True, capture_output=True,
-                       timeout=120)
+                       timeout=120, env=ENV)
         relax = ["-m", "fabkit", "relax", str(panel), "-o", str(Path(tmp) / "out.obj")]
         row("fabkit relax (no-op)", [py, *relax], NOOP_RELAX_TARGET_S)
+        row("fabkit relax (no-op, no bytecode cache)", [py, *relax], None, env=no_cache_env)
         heavy = _heavy_imports(relax)
+    load_after = os.getloadavg()[0]
     data = report("cli", rows, {"baseline_wall_s": base_wall, "baseline_cpu_s": base_cpu,
-                                "noop_relax_heavy_imports": heavy})
+                                "noop_relax_heavy_imports": heavy, "load_average_1min": [load_before, load_after],
+                                "cores": os.cpu_count()})
     print(f"a no-op relax imports {', '.join(heavy) or 'none of ' + ', '.join(HEAVY)}")
+    print(f"load average (1 min): {load_before:.2f} before, {load_after:.2f} after, on {os.cpu_count()} cores")
     return data

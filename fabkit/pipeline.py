@@ -35,7 +35,6 @@ from pathlib import Path
 
 from fabkit.errors import InputError
 from fabkit.results import Checked, Flat, Folds, Panel, Program, Relaxed, Sent
-from fabkit.toolpath_stage import PlanSettings, fold_source, plan_fold_file
 from fabkit.verdicts import DEFAULT_MAX_ERROR, DEFAULT_MAX_MOVE, DEFAULT_TARGET_RTOL, MAX_REFOLD_FRAMES
 
 __all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "render", "send", "fold_source", "PlanSettings",
@@ -43,6 +42,16 @@ __all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "re
 
 #: file names in the working folder (those of `fabkit demo`)
 FOLD_NAME, PATH_NAME, CHECK_NAME = "fold.fold", "path.json", "check.json"
+
+
+def __getattr__(name: str):
+    """`PlanSettings` and `fold_source` (fabkit.toolpath_stage), imported on first use so that
+    the stages that do not plan (a no-op `fabkit relax`) do not load it."""
+    if name in ("PlanSettings", "fold_source"):
+        import fabkit.toolpath_stage as stage
+
+        return getattr(stage, name)
+    raise AttributeError(f"module 'fabkit.pipeline' has no attribute {name!r}")
 
 
 def _require_ok(result, stage: str) -> None:
@@ -187,7 +196,7 @@ def _workdir(workdir) -> Path:
 
 
 def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | None = None,
-         settings: PlanSettings | None = None, **options) -> Program:
+         settings=None, **options) -> Program:
     """A UR toolpath for `folds` in the cell file `cell` (`fabkit toolpath`). Writes the fold
     states (`fold.fold`) and the toolpath (`path.json`) into `workdir` (made if missing; default:
     a new temporary folder) and plans from the FOLD file as written, recording its sha256.
@@ -202,6 +211,8 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     verdicts (with `check_loads`, exceeded loads make it not ok and write no path.json). Not ok (no
     path.json) when the path is unreachable, singular or discontinuous."""
     from dataclasses import replace
+
+    from fabkit.toolpath_stage import PlanSettings, plan_fold_file
 
     _require_ok(folds, "plan")
     unknown = sorted(set(options) - set(PlanSettings.field_names()))

@@ -263,7 +263,7 @@ def orient(vertices: np.ndarray, faces: list) -> OrientResult:
                 area_flipped += np.linalg.norm(a)
             else:
                 area_kept += np.linalg.norm(a)
-        zs = V[np.unique(np.concatenate([np.asarray(faces[k]) for k in piece])), 2]
+        zs = V[np.concatenate([np.asarray(faces[k]) for k in piece]), 2]  # repeats do not change the range
         flat = np.ptp(zs) <= 1e-12 * max(_size(V), 1e-300)
         turn = normal[2] < 0 if flat else area_flipped > area_kept
         if turn:

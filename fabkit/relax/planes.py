@@ -49,7 +49,7 @@ def face_groups(t: MeshTopology, mask: np.ndarray) -> list[FaceGroup]:
     """The faces with >= 4 vertices where `mask` (F,) is set, one group per face size."""
     fi, sizes = t.face_indices, t.face_sizes
     groups = []
-    for k in np.unique(sizes):
+    for k in np.flatnonzero(np.bincount(sizes)):  # the face sizes present (np.unique would load numpy.ma)
         if k < 4:
             continue
         ids = np.flatnonzero((sizes == k) & mask)
