@@ -8,7 +8,7 @@ came from, notes, how many vertices were welded with the old -> new index map, h
 re-merged with the face map, which faces were turned.
 
 FOLD crease assignments are kept as face tags: `face_data["strip"]` numbers the pieces between the
-creases (M, V, U edges) when the file has no strip tags, and `face_data["assignment"]` holds, per face,
+creases (M, V, U edges) when the file has no strip tags (`fabkit.structure.strips_of_creases`), and `face_data["assignment"]` holds, per face,
 one FOLD letter per side (side k runs from corner k to corner k+1), so M/V survive OBJ and `.3dm`.
 """
 from __future__ import annotations

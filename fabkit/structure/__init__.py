@@ -23,7 +23,7 @@ from fabkit.structure.creases import CreaseDetection, chain_edges, chain_fold_an
 from fabkit.structure.layout import (comes_first, geometric_key, middle_row_faces, order_strips, quad_ribbons,
                                      strip_components)
 
-__all__ = ["PanelStructure", "panel_structure", "pair_structure", "crease_mask", "strips_of_creases", "crease_rows",
+__all__ = ["PanelStructure", "panel_structure", "pair_structure", "crease_mask", "strips_of_creases",
            "chain_edges", "detect_creases", "FLAT_ANGLE"]
 
 #: The face tags that carry structure (docs/CONTRACTS.md "Panel tags").
