@@ -23,7 +23,7 @@ from fabkit.structure.creases import CreaseDetection, chain_edges, chain_fold_an
 from fabkit.structure.layout import (comes_first, geometric_key, middle_row_faces, order_strips, quad_ribbons,
                                      strip_components)
 
-__all__ = ["PanelStructure", "panel_structure", "pair_structure", "crease_mask", "strips_of_creases",
+__all__ = ["PanelStructure", "panel_structure", "pair_structure", "crease_mask", "strips_of_creases", "assigned_creases",
            "chain_edges", "detect_creases", "FLAT_ANGLE"]
 
 #: The face tags that carry structure (docs/CONTRACTS.md "Panel tags").
@@ -103,6 +103,14 @@ def crease_mask(mesh: PolyMesh) -> np.ndarray:
     """(E,) bool: the panel's crease edges (tags if present, else inferred), as `panel_structure(mesh).crease`
     without the middle row and the rest."""
     return _creases_and_strips(mesh, mesh.face_data, dihedral_angles(mesh))[0]
+
+
+def assigned_creases(model) -> np.ndarray | None:
+    """Mesh edge ids (of `model.mesh()`) a FOLD model assigns M, V or U: the creases the file
+    states, for `panel_structure(..., crease_edges=)`; None when it assigns none."""
+    ids = model.mesh_edge_index[np.isin(model.edges_assignment, ["M", "V", "U"])]
+    ids = ids[ids >= 0]
+    return ids if len(ids) else None
 
 
 def strips_of_creases(mesh: PolyMesh, crease: np.ndarray) -> np.ndarray:
