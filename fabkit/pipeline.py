@@ -37,7 +37,7 @@ from fabkit.errors import InputError
 from fabkit.results import Checked, Flat, Folds, Panel, Program, Relaxed, Sent
 from fabkit.verdicts import DEFAULT_MAX_ERROR, DEFAULT_MAX_MOVE, DEFAULT_TARGET_RTOL, MAX_REFOLD_FRAMES
 
-__all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "render", "send", "fold_source", "PlanSettings",
+__all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "render", "send", "check_sheet", "check_render", "fold_source", "PlanSettings",
            "Panel", "Relaxed", "Flat", "Folds", "Program", "Checked", "Sent"]
 
 #: file names in the working folder (those of `fabkit demo`)
@@ -232,6 +232,28 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     return replace(program, path_file=path_file)
 
 
+def check_sheet(material=None, thickness=None, crease: str = "plain", ligament=None, bend_radius=None):
+    """The sheet options of a check (`fabkit check --material ...`, `check(material=...)`) ->
+    (`SheetSpec` or None, slab thickness [m] or None). With `material` the fold loads are checked
+    for that sheet; without, `thickness` (metres, or text with a unit) is only the panel pieces'
+    thickness, and the crease options are refused."""
+    from fabkit.sheet import sheet_of
+
+    if material is not None:
+        return sheet_of(material, thickness, crease, ligament=ligament, bend_radius=bend_radius), None
+    if crease != "plain" or ligament is not None or bend_radius is not None:
+        raise InputError("--crease, --ligament and --bend-radius need --material", source="--material")
+    if thickness is None:
+        return None, None
+    if isinstance(thickness, str):
+        from fabkit.materials import parse_length
+
+        return None, parse_length(thickness, "--thickness")
+    if isinstance(thickness, bool) or not isinstance(thickness, (int, float)) or not 0 < thickness < 0.05:
+        raise InputError(f"must be in (0, 0.05) m, got {thickness!r}", source="--thickness")
+    return None, float(thickness)
+
+
 def check(program: Program, *, use_panel: bool = True, thickness=None, material=None, crease: str = "plain",
           ligament=None, bend_radius=None) -> Checked:
     """The MuJoCo check of `program` (`fabkit check`), from its PATH.json and the FOLD file it
@@ -240,17 +262,13 @@ def check(program: Program, *, use_panel: bool = True, thickness=None, material=
     A program planned with a material is checked for its fold loads too (not ok when one is
     exceeded; `report.loads` per state). `material` (with `thickness`, `crease`, ... as in
     `plan`) checks the loads of a program planned without one; for one planned with a material
-    it must name the same sheet. Without `material`, `thickness` [m] is the panel pieces'."""
+    it must name the same sheet. Without `material`, `thickness` [m] is the panel pieces'
+    (`check_sheet`)."""
     from fabkit.io.jsonfile import write_json
-    from fabkit.sheet import sheet_of
     from sim.check import CheckSettings, run_toolpath_check
 
     _require_ok(program, "check")
-    sheet = None
-    if material is not None:
-        sheet, thickness = sheet_of(material, thickness, crease, ligament=ligament, bend_radius=bend_radius), None
-    if thickness is not None and not 0 < thickness < 0.05:
-        raise InputError(f"must be in (0, 0.05) m, got {thickness}", source="thickness")
+    sheet, thickness = check_sheet(material, thickness, crease, ligament, bend_radius)
     result = run_toolpath_check(str(program.path_file), program.cell, use_panel=use_panel, thickness=thickness,
                                 settings=CheckSettings(), sheet=sheet)
     report = result.report
@@ -261,24 +279,32 @@ def check(program: Program, *, use_panel: bool = True, thickness=None, material=
                    run=result)
 
 
+def check_render(path: str | os.PathLike, size: tuple[int, int]) -> None:
+    """Refuse a render `fabkit check --render` / `render` cannot make: a name not ending in .png or
+    .mp4, a size outside 16x16 .. 1280x960, no offscreen OpenGL (EGL or OSMesa; chosen here, before
+    mujoco is first imported)."""
+    from sim.render import select_gl_backend
+
+    if Path(path).suffix.lower() not in (".png", ".mp4"):
+        raise InputError("must end in .png or .mp4", source="--render")
+    w, h = size
+    if not (16 <= w <= 1280 and 16 <= h <= 960):
+        raise InputError(f"{w}x{h} is outside 16x16 .. 1280x960", source="--size")
+    if select_gl_backend() is None:
+        raise InputError("no offscreen OpenGL backend (install libegl1 libegl-mesa0 libgl1-mesa-dri, or libosmesa6; "
+                         "or set MUJOCO_GL=egl before anything imports mujoco)", source="--render")
+
+
 def render(checked: Checked, path: str | os.PathLike, *, waypoint: int | None = None,
            size: tuple[int, int] = (640, 480), frames: int = 240) -> dict:
     """A picture of a check (`fabkit check --render`): `path` ending in .png draws `waypoint`
     (default: the first problem, else the middle of the fold) with an offending pair in red, .mp4
     plays the whole program (at most `frames` frames). Needs offscreen OpenGL (EGL or OSMesa),
     chosen before mujoco is first imported. -> what was drawn (path, waypoint or frames)."""
-    from sim.render import select_gl_backend
+    check_render(path, size)
+    from sim.render_check import render_movie, render_waypoint
 
     suffix = Path(path).suffix.lower()
-    if suffix not in (".png", ".mp4"):
-        raise InputError("must end in .png or .mp4", source=str(path))
-    w, h = size
-    if not (16 <= w <= 1280 and 16 <= h <= 960):
-        raise InputError(f"{w}x{h} is outside 16x16 .. 1280x960", source="size")
-    if select_gl_backend() is None:
-        raise InputError("no offscreen OpenGL backend (install libegl1 libegl-mesa0 libgl1-mesa-dri, or libosmesa6; "
-                         "or set MUJOCO_GL=egl before anything imports mujoco)", source=str(path))
-    from sim.render_check import render_movie, render_waypoint
 
     cell = checked.program.cell
     if suffix == ".png":

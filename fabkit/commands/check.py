@@ -74,32 +74,25 @@ def _size(text: str) -> tuple[int, int]:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
         raise InputError(f"expected WIDTHxHEIGHT, got {text!r}", source="--size") from None
-    if not (16 <= w <= 1280 and 16 <= h <= 960):
-        raise InputError(f"{w}x{h} is outside 16x16 .. 1280x960", source="--size")
     return w, h
 
 
 def run(args) -> int:
     import os
 
+    from fabkit.pipeline import check_render, check_sheet
+
     renders = [Path(r) for r in args.render]
+    size = _size(args.size) if renders else None
     for render in renders:
-        if render.suffix.lower() not in (".png", ".mp4"):
-            raise InputError("must end in .png or .mp4", source="--render")
+        check_render(render, size)  # the GL backend is chosen before anything imports mujoco
         if render.resolve() == Path(args.output).resolve():
             raise InputError("would overwrite the check report", source="--render")
-    if renders:
-        size = _size(args.size)
-        from sim.render import select_gl_backend  # before anything imports mujoco
-
-        if select_gl_backend() is None:
-            raise InputError("no offscreen OpenGL backend (install libegl1 libegl-mesa0 libgl1-mesa-dri, or "
-                             "libosmesa6; or set MUJOCO_GL=egl before anything imports mujoco)", source="--render")
     if args.view and not os.environ.get("DISPLAY"):
         raise InputError("no display for the viewer (DISPLAY is not set)", source="--view")
     if not 2 <= args.frames <= 10000:
         raise InputError(f"must be in 2..10000, got {args.frames}", source="--frames")
-    sheet, slab = _sheet_options(args)
+    sheet, slab = check_sheet(args.material, args.thickness, args.crease, args.ligament, args.bend_radius)
     out = Path(args.output)
     if not out.parent.is_dir():
         raise InputError("output directory does not exist", source=str(out))
@@ -145,22 +138,6 @@ def run(args) -> int:
         m, _ = build_cell_model(cell, panel)
         view(m, cell, dense.q, panel=panel, states=dense.state, dt=dense.dt)
     return 0 if report.ok else 1
-
-
-def _sheet_options(args):
-    """(sheet, slab thickness): the `SheetSpec` --material names (None without --material), or the
-    panel pieces' thickness --thickness alone gives."""
-    if args.material is None:
-        if args.crease != "plain" or args.ligament is not None or args.bend_radius is not None:
-            raise InputError("--crease, --ligament and --bend-radius need --material", source="--material")
-        if args.thickness is None:
-            return None, None
-        from fabkit.materials import parse_length
-
-        return None, parse_length(args.thickness, "--thickness")
-    from fabkit.commands._sheet import sheet_from_args
-
-    return sheet_from_args(args), None
 
 
 def _summary(args, report, elapsed: float, fold_path) -> None:
