@@ -35,7 +35,7 @@ from pathlib import Path
 
 from fabkit.errors import InputError
 from fabkit.results import Checked, Flat, Folds, Panel, Program, Relaxed, Sent
-from fabkit.verdicts import DEFAULT_MAX_ERROR, DEFAULT_MAX_MOVE, DEFAULT_TARGET_RTOL, MAX_REFOLD_FRAMES
+from fabkit.verdicts import DEFAULT_MAX_ERROR, DEFAULT_MAX_MOVE, DEFAULT_TARGET_RTOL
 
 __all__ = ["load", "generate", "relax", "unfold", "refold", "plan", "check", "render", "send", "check_sheet", "check_render", "fold_source", "PlanSettings",
            "Panel", "Relaxed", "Flat", "Folds", "Program", "Checked", "Sent"]
@@ -145,42 +145,23 @@ def refold(flat: Flat, target: Panel | Relaxed | None = None, *, frames: int = 2
            target_tol: float = DEFAULT_TARGET_RTOL, solver: str = "direct", intersections: bool = True,
            title: str | None = None) -> Folds:
     """Fold states from `flat` to `target` (default: the panel `flat` was unfolded from), as
-    `fabkit refold`: `frames` states per step, `drive` "middle-row" | "all" | hinge ids, `steps`
-    e.g. "crease0,crease1". Not ok when target is not a fold of flat (edge lengths differ by more
-    than `length_tol`), a state did not converge, the last state misses the target by more than
+    `fabkit refold` (`fabkit.refold_stage.refold_meshes`): `frames` states per step, `drive`
+    "middle-row" | "all" | hinge ids | a JSON drive file, `steps` e.g. "crease0,crease1" or a JSON
+    schedule file. Not ok when target is not a fold of flat (edge lengths differ by more than
+    `length_tol`), a state did not converge, the last state misses the target by more than
     `target_tol` of the panel size, or faces pass through each other. `title`: the FOLD file's
     `file_title` (default "refold of the flat pattern of NAME")."""
-    from fabkit.refold import DEFAULT_LENGTH_RTOL, NotAFoldError, RefoldSolver
-    from fabkit.refold.export import to_fold_model
-    from fabkit.refold.sequence import build_schedule, parse_steps
+    from fabkit.refold_stage import refold_meshes
 
     _require_ok(flat, "refold")
-    target_mesh = flat.folded if target is None else target.mesh
     if target is not None:
         _require_ok(target, "refold")
-    if not 2 <= frames <= MAX_REFOLD_FRAMES:
-        raise InputError(f"must be in 2..{MAX_REFOLD_FRAMES} (flat and target included), got {frames}",
-                         source="frames")
-    length_tol = DEFAULT_LENGTH_RTOL if length_tol is None else length_tol
-    try:
-        rs = RefoldSolver(flat.mesh, target_mesh, fixed_face=fixed_face, diagonal=diagonal, length_rtol=length_tol,
-                          solver=solver, flat_name=f"the flat pattern of {flat.name}",
-                          target_name=flat.name if target is None else target.name)
-    except NotAFoldError as exc:
-        return Folds(sequence=None, model=None, name=flat.name, target_tol=target_tol, ok=False,
-                     problems=(str(exc),), details={"worst_edge": list(exc.edge),
-                                                    "worst_relative_length_difference": exc.relative})
-    driven, notes = rs.driven_hinges(drive) if isinstance(drive, str) else (drive, [])
-    if isinstance(steps, str):
-        steps = parse_steps(steps, rs.panel, driven)
-    fractions, step_of_state = build_schedule(rs.panel, driven, steps, frames)
-    seq = rs.solve(fractions, driven, step_of_state, check_intersections=intersections, notes=notes)
-    problems = seq.problems(target_tol)
-    model = to_fold_model(seq, title=f"refold of the flat pattern of {flat.name}" if title is None else title)
-    return Folds(sequence=seq, model=model, name=flat.name, target_tol=target_tol, ok=not problems,
-                 problems=tuple(problems), details={"length_tol": length_tol, "frames_per_step": frames,
-                                                    "structure": rs.structure.summary(flat.mesh),
-                                                    "max_relative_length_difference": rs.max_length_mismatch})
+    return refold_meshes(flat.mesh, flat.folded if target is None else target.mesh, frames=frames, drive=drive,
+                         steps=steps, fixed_face=fixed_face, diagonal=diagonal, length_tol=length_tol,
+                         target_tol=target_tol, solver=solver, intersections=intersections,
+                         flat_name=f"the flat pattern of {flat.name}",
+                         target_name=flat.name if target is None else target.name,
+                         title=f"refold of the flat pattern of {flat.name}" if title is None else title)
 
 
 def _workdir(workdir) -> Path:

@@ -197,12 +197,22 @@ class Folds:
         return Path(path)
 
     def to_json(self) -> dict:
-        """The headline of `fabkit refold --report` (summary, driven edges, notes, tolerances)."""
+        """The report `fabkit refold --report` writes (without the output files): summary, driven
+        edges, notes, tolerances and one record per state."""
+        import math
+
         out = {"format": "fabkit.refold/1", "target": self.name, "ok": self.ok, "problems": list(self.problems),
                "target_tol": self.target_tol, **self.details}
         if self.sequence is not None:
             seq = self.sequence
-            out.update({"summary": seq.summary(), "driven_edges": seq.edges[seq.driven], "notes": list(seq.notes)})
+            out.update({"summary": seq.summary(), "driven_edges": seq.edges[seq.driven], "notes": list(seq.notes),
+                        "states": [{"state": s, "step": int(seq.step[s]), "loop_residual_rad": seq.residual[s],
+                                    "edge_length_error": seq.edge_length_error[s],
+                                    "corner_mismatch_m": seq.corner_mismatch[s],
+                                    "newton_iterations": int(seq.newton_iterations[s]),
+                                    "converged": bool(seq.converged[s]), "intersections": int(seq.intersections[s]),
+                                    "driven_angles_deg": [math.degrees(a) for a in seq.angles[s, seq.driven]]}
+                                   for s in range(seq.n_states)]})
         return _jsonable(out)
 
 

@@ -2,15 +2,12 @@
 from __future__ import annotations
 
 import contextlib
-import math
 import sys
-import time
 from pathlib import Path
 
 from fabkit.commands._common import add_common, progress, say, to_jsonable
 from fabkit.commands._loading import add_units, load_panel_for
 from fabkit.verdicts import DEFAULT_TARGET_RTOL
-from fabkit.verdicts import MAX_REFOLD_FRAMES as MAX_FRAMES  # most states per folding step
 
 HELP = """Fold states a robot walks the sheet through, from the flat pattern to the target (paper §3.6).
 
@@ -85,14 +82,9 @@ def plan_files(args, plan) -> None:
 
 def _check_args(args) -> list[Path]:
     from fabkit.errors import InputError
+    from fabkit.refold_stage import check_refold_options
 
-    if not 2 <= args.frames <= MAX_FRAMES:
-        raise InputError(f"must be in 2..{MAX_FRAMES} (flat and target included), got {args.frames}",
-                         source="--frames")
-    for name in ("length_tol", "target_tol"):
-        v = getattr(args, name)
-        if not (math.isfinite(v) and v > 0):
-            raise InputError(f"must be a positive number, got {v}", source="--" + name.replace("_", "-"))
+    check_refold_options(args.frames, args.length_tol, args.target_tol)
     outputs = [p for p in (args.output, args.glb, args.png, args.report) if p]
     resolved = [Path(p).resolve() for p in outputs]
     if len(set(resolved)) != len(resolved):
@@ -116,9 +108,8 @@ def run(args) -> int:
     from fabkit.commands._common import write_json
     from fabkit.io.atomic import atomic_path
     from fabkit.io.fold import save_fold
-    from fabkit.refold import NotAFoldError, RefoldSolver
-    from fabkit.refold.export import plot_fold_angles, save_glb_strip, save_obj_states, to_fold_model
-    from fabkit.refold.sequence import build_schedule, load_drive_file, parse_steps
+    from fabkit.refold.export import plot_fold_angles, save_glb_strip, save_obj_states
+    from fabkit.refold_stage import refold_meshes
 
     _check_args(args)
     flat, flat_info = load_panel_for(args, args.flat, state="key")
@@ -132,71 +123,23 @@ def run(args) -> int:
         target, _ = load_panel_for(args, args.flat, state="folded")
     else:
         target, _ = load_panel_for(args, args.target)
-    report = {"format": "fabkit.refold/1", "flat": str(args.flat), "target": str(args.target), "ok": False,
-              "problems": []}
-    try:
-        solver = RefoldSolver(flat, target, fixed_face=args.fixed_face, diagonal=args.diagonal,
-                              length_rtol=args.length_tol, solver=args.solver, flat_name=str(args.flat),
-                              target_name=str(args.target))
-    except NotAFoldError as exc:
-        report["problems"].append(str(exc))
-        report["worst_edge"] = list(exc.edge)
-        report["worst_relative_length_difference"] = exc.relative
+    with progress(args, "refolding", total=None) as advance:
+        folds = refold_meshes(flat, target, frames=args.frames, drive=args.drive, steps=args.steps,
+                              fixed_face=args.fixed_face, diagonal=args.diagonal, length_tol=args.length_tol,
+                              target_tol=args.target_tol, solver=args.solver, intersections=not args.no_intersections,
+                              flat_name=str(args.flat), target_name=str(args.target),
+                              title=f"refold of {Path(args.flat).name} to {Path(args.target).name}", progress=advance)
+    seq = folds.sequence
+    if seq is None:  # not a fold of FLAT: nothing but the report is written
         if args.report:
-            write_json(args.report, report)
-        print(f"fabkit refold: {exc}", file=sys.stderr)
+            write_json(args.report, folds.to_json())
+        print(f"fabkit refold: {folds.problems[0]}", file=sys.stderr)
         return 1
-    steps = None
-    if args.drive in ("middle-row", "all"):
-        driven, notes = solver.driven_hinges(args.drive)
-    else:
-        if not Path(args.drive).is_file():
-            from fabkit.errors import InputError
-
-            raise InputError("not middle-row, all, or an existing JSON file", source=args.drive)
-        driven, steps = load_drive_file(args.drive, flat, solver.panel)
-        notes = []
-    if args.steps:
-        from fabkit.errors import InputError
-
-        if steps is not None:
-            raise InputError("the drive file already has steps", source="--steps")
-        if Path(args.steps).is_file():  # a JSON schedule: its steps also say which hinges are driven
-            if args.drive != "middle-row":
-                raise InputError("give the driven hinges either in --drive or in the --steps file", source="--steps")
-            driven, steps = load_drive_file(args.steps, flat, solver.panel)
-            steps = steps if steps is not None else [driven]
-        else:
-            steps = parse_steps(args.steps, solver.panel, driven)
-    fractions, step_of_state = build_schedule(solver.panel, driven, steps, args.frames)
-    t0 = time.perf_counter()
-    with progress(args, "refolding", total=len(fractions)) as advance:
-        seq = solver.solve(fractions, driven, step_of_state, check_intersections=not args.no_intersections,
-                           progress=advance, notes=notes)
-    elapsed = time.perf_counter() - t0
-
-    problems = seq.problems(args.target_tol)
-    rel = seq.target_distance / seq.panel_size if seq.panel_size > 0 else float("nan")
-    summary = seq.summary()
-    report.update({
-        "ok": not problems, "problems": problems, "output": str(args.output),
-        "outputs": {k: v for k, v in {"fold": args.output, "glb": args.glb, "png": args.png,
-                                      "obj_dir": args.obj_dir}.items() if v},
-        "drive": args.drive, "steps": args.steps, "structure": solver.structure.summary(flat), "frames_per_step": args.frames,
-        "driven_edges": seq.edges[seq.driven], "summary": summary, "seconds": elapsed,
-        "notes": list(seq.notes), "length_tol": args.length_tol, "target_tol": args.target_tol,
-        "max_relative_length_difference": solver.max_length_mismatch,
-        "states": [{"state": s, "step": int(seq.step[s]), "loop_residual_rad": seq.residual[s],
-                    "edge_length_error": seq.edge_length_error[s], "corner_mismatch_m": seq.corner_mismatch[s],
-                    "newton_iterations": int(seq.newton_iterations[s]), "converged": bool(seq.converged[s]),
-                    "intersections": int(seq.intersections[s]),
-                    "driven_angles_deg": [math.degrees(a) for a in seq.angles[s, seq.driven]]}
-                   for s in range(seq.n_states)],
-    })
-    model = to_fold_model(seq, title=f"refold of {Path(args.flat).name} to {Path(args.target).name}")
+    report = {**folds.to_json(), "output": str(args.output),
+              "outputs": {k: v for k, v in {"fold": args.output, "glb": args.glb, "png": args.png,
+                                            "obj_dir": args.obj_dir}.items() if v}}
     with contextlib.ExitStack() as stack:
-        tmp_fold = stack.enter_context(atomic_path(args.output))
-        save_fold(model, tmp_fold)
+        save_fold(folds.model, stack.enter_context(atomic_path(args.output)))
         if args.glb:
             save_glb_strip(seq, stack.enter_context(atomic_path(args.glb)))
         if args.png:
@@ -206,14 +149,16 @@ def run(args) -> int:
     if args.obj_dir:
         save_obj_states(seq, flat, args.obj_dir)
 
+    summary = report["summary"]
+    rel = seq.target_distance / seq.panel_size if seq.panel_size > 0 else float("nan")
     say(args, f"refold {args.flat} -> {args.target}: {seq.n_states} states, {len(seq.driven)} driven of "
               f"{summary['hinges']} hinges, fixed face {seq.fixed_face}; max loop residual "
               f"{summary['max_loop_residual_rad']:.2g} rad, max edge-length error "
               f"{summary['max_edge_length_error_rel']:.2g}, last state to target {rel:.2g} of the panel size; "
-              f"Newton {summary['newton_iterations_mean']:.1f} iterations/state; {elapsed:.2f} s")
+              f"Newton {summary['newton_iterations_mean']:.1f} iterations/state; {report['seconds']:.2f} s")
     for n in seq.notes:
         say(args, f"note: {n}")
     say(args, "wrote " + ", ".join(v for v in (args.output, args.glb, args.png, args.report, args.obj_dir) if v))
-    for p in problems:
+    for p in folds.problems:
         print(f"fabkit refold: FAILED: {p}", file=sys.stderr)
-    return 1 if problems else 0
+    return 1 if folds.problems else 0
