@@ -89,7 +89,8 @@ def run(args) -> int:
     from fabkit.io.atomic import atomic_write
     from fabkit.toolpath_stage import PlanSettings, check_progress_register, plan_fold_file
 
-    settings = PlanSettings(**{name: getattr(args, name) for name in PlanSettings.field_names()})
+    # every option named like a PlanSettings field (--grip-face: grip_face) goes into the one record
+    settings = PlanSettings(**{name: getattr(args, name) for name in PlanSettings.field_names() if hasattr(args, name)})
     settings.check()
     check_progress_register(args.progress_register)
     if args.output and args.script and Path(args.output).resolve() == Path(args.script).resolve():
