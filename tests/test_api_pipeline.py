@@ -280,3 +280,19 @@ def test_fabkit_toolpath_writes_what_fk_plan_writes(tmp_path, panel, sheet, caps
         assert f"fabkit toolpath: note: {note}" in err
     for line in ([] if program.loads is None else program.loads.failure_lines()):
         assert f"fabkit toolpath: warning: {line}" in err
+
+
+def test_every_toolpath_option_is_a_plan_setting():
+    """`fabkit toolpath`'s planning options are the fields of the one record `fk.plan` takes, and
+    both refuse a bad value with the same message."""
+    from fabkit.cli import build_parser
+    from fabkit.toolpath_stage import PlanSettings
+
+    options = vars(build_parser("toolpath").parse_args(["toolpath", "s.fold", "--cell", "c.toml", "-o", "p.json"]))
+    files = {"command", "fold", "cell", "output", "script", "report", "quiet", "units", "progress_register"}
+    assert {k for k in options if not k.startswith("_")} - files == set(PlanSettings.field_names())
+    with pytest.raises(fabkit.InputError, match=r"--approach.*not in \(0, 0.5\]"):
+        PlanSettings(approach=-1.0).check()
+    with pytest.raises(fabkit.InputError, match="unknown option"):
+        fk.plan(fk.Folds(sequence=None, model=None, name="x", target_tol=1e-6, ok=True, problems=()), CELL,
+                gripper_colour="red")
