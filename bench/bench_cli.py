@@ -14,8 +14,8 @@ Bytecode: the commands run as an installed fabkit runs, from compiled bytecode (
 `PYTHONDONTWRITEBYTECODE` is lifted for the children). The row "no bytecode cache" runs the no-op
 relax with `PYTHONDONTWRITEBYTECODE=1` and no cache: fabkit's own modules are compiled from source
 on every run (the installed packages keep their bytecode), as in an environment that forbids
-writing bytecode next to a source checkout. The load average (1 min) before and after the run is printed and
-stored: under a load above the core count the wall times mostly count waits.
+writing bytecode next to a source checkout. The load average (1 min) before and after the run is
+printed and stored: under a load above the core count the wall times mostly count waits.
 """
 from __future__ import annotations
 
