@@ -22,9 +22,13 @@ __all__ = ["program_panel", "carry_over"]
 
 @functools.lru_cache(maxsize=4)
 def _cell(cell_toml: str, cell_name: str):
+    """The cell of `cell_toml` (the file's text, read as UTF-8 without newline translation), with
+    the sha256 of the file's bytes as `robot.cell.load_cell` gives it, so `fabkit send` and
+    `fabkit check` of the files written accept them against the cell file."""
     from robot.cell import parse_cell
 
-    return parse_cell(tomllib.loads(cell_toml), cell_name)
+    cell = parse_cell(tomllib.loads(cell_toml), cell_name)
+    return dataclasses.replace(cell, sha256=hashlib.sha256(cell_toml.encode("utf-8")).hexdigest())
 
 
 def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str, thickness: float, *,
