@@ -12,8 +12,9 @@ fabricator, and the arm reaches some and not others: so the set-ups are tried in
 3. and 4. the same with the other face up,
 
 and the first whose program plans and passes the check is kept (each with the refold and the
-check of its own). A panel for which none passes ends with the first set-up's stage and reason,
-the others' named after it.
+check of its own). A clamp face that the check finds the clamp cannot hold (its footprint leaves
+the face, or the face bends) is not tried again with the other face up. A panel for which none
+passes ends with the first set-up's stage and reason, the others' named after it.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ import numpy as np
 
 from fabkit.errors import InputError
 
-__all__ = ["Setup", "panel_setups", "refold_inputs", "refold_and_program", "panel_frame_of_task"]
+__all__ = ["Setup", "panel_setups", "clamp_problem", "refold_inputs", "refold_and_program", "panel_frame_of_task"]
 
 
 class Setup(tuple):
@@ -144,6 +145,17 @@ def _refold(task: dict, setup: Setup) -> tuple[dict | None, str | None, str]:
     return summary, fold_text(model), ""
 
 
+def clamp_problem(check: dict | None, clamp: int) -> str | None:
+    """The check's holds problem that no set-up clamping `clamp` escapes, or None: the clamp's
+    footprint does not fit on the face, or the face bends in the fold states (not in the clamp's
+    frame). Both depend only on the face's flat shape and the cell, not on which side is up."""
+    for q in (check or {}).get("problems", ()):
+        d = q.get("detail", "")
+        if q.get("kind") == "holds" and (f"leaves clamped face {clamp}:" in d or f"clamped face {clamp} moves" in d):
+            return f"clamp face {clamp}: {d}"
+    return None
+
+
 def refold_and_program(task: dict) -> dict:
     """Refold one panel, then program and check it with `task["program"]`, set-up by set-up until
     one passes (module docstring). Pure: data in, data out."""
@@ -153,8 +165,14 @@ def refold_and_program(task: dict) -> dict:
             "check": None, "cycle_time_s": None, "grip_face": None, "refold": None, "face_up_on_fixture": None,
             "clamped_face": None, "loads": None, "setups": []}
     first = None
+    unclampable: dict[int, str] = {}  # clamp face -> why the clamp cannot hold it (on any set-up)
     for setup in panel_setups(task):
         out = {**base, "face_up_on_fixture": "back" if setup.back_up else "front", "clamped_face": setup.clamp}
+        if setup.clamp in unclampable:  # the face is the same flat shape with either face up: skipped
+            base["setups"].append({"clamped_face": setup.clamp, "grip_face": setup.grip,
+                                   "face_up_on_fixture": out["face_up_on_fixture"], "stage": "skipped",
+                                   "reason": unclampable[setup.clamp]})
+            continue
         summary, text, why = _refold(task, setup)
         out["refold"] = summary
         if text is None:
@@ -171,8 +189,11 @@ def refold_and_program(task: dict) -> dict:
                                "reason": out["reason"]})
         if out["stage"] is None:
             return {**out, "setups": base["setups"], "seconds": time.perf_counter() - t0}
+        why_not = clamp_problem(out.get("check"), setup.clamp)
+        if why_not:
+            unclampable[setup.clamp] = why_not
         first = first or out
     others = "; ".join(f"{Setup(s['clamped_face'], s['grip_face'], s['face_up_on_fixture'] == 'back').describe()}: "
-                       f"{s['stage']}: {s['reason'][:160]}" for s in base["setups"][1:])
+                       f"{s['stage']}: {s['reason'][:160]}" for s in base["setups"][1:] if s["stage"] != "skipped")
     reason = first["reason"] + (f" [every set-up fails; also tried: {others}]" if others else "")
     return {**first, "reason": reason, "setups": base["setups"], "seconds": time.perf_counter() - t0}
