@@ -107,14 +107,17 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     out = Path(args.out)
     t0 = time.perf_counter()
     show = _stage_printer(args)
-    run = run_production(layout, out, cell_toml=cell_path.read_bytes().decode("utf-8"), cell_name=cell_path.name,
-                         program=program_panel, panels_options=popts, carry=carry_over,
-                         options=ProductionOptions(frames=args.frames, overrides=overrides,
-                                                   same_part_tol=None if args.each_panel else SAME_PART_TOL,
-                                                   sheet=spec, tool_mass=args.tool_mass),
-                         mat=mat, jobs=args.jobs, scheduler=args.scheduler, progress=show)
-    t1 = time.perf_counter()
-    write_run(run.geometry, out, plots=not args.no_plots, cut_files=True, jobs=args.jobs, scheduler=args.scheduler)
+    from fabkit.panels.executor import panel_executor
+
+    with panel_executor(args.jobs, args.scheduler) as ex:  # one pool of workers for every stage
+        run = run_production(layout, out, cell_toml=cell_path.read_bytes().decode("utf-8"), cell_name=cell_path.name,
+                             program=program_panel, panels_options=popts, carry=carry_over,
+                             options=ProductionOptions(frames=args.frames, overrides=overrides,
+                                                       same_part_tol=None if args.each_panel else SAME_PART_TOL,
+                                                       sheet=spec, tool_mass=args.tool_mass),
+                             mat=mat, jobs=args.jobs, scheduler=args.scheduler, progress=show, executor=ex)
+        t1 = time.perf_counter()
+        write_run(run.geometry, out, plots=not args.no_plots, cut_files=True, executor=ex)
     seconds = dict(run.seconds)
     seconds["geometry_files"] = time.perf_counter() - t1
     t1 = time.perf_counter()

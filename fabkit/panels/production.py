@@ -16,6 +16,7 @@ program and check (`fabkit.panels.repeats`, `same_part_tol`).
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import os
@@ -186,7 +187,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
                    panels_options=None, options: ProductionOptions = ProductionOptions(),
                    mat: Stock | None = None, jobs: int = 1, scheduler: str | None = None,
                    progress: Callable | None = None, timeout: float | None = None,
-                   select=None, carry: Callable | None = None) -> ProductionRun:
+                   select=None, carry: Callable | None = None, executor=None) -> ProductionRun:
     """Run every stage for every panel of `layout` into folder `out` (see the module docstring).
 
     `program(fold_text, fold_name, cell_toml, cell_name, thickness) -> dict` plans and checks one
@@ -198,6 +199,8 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     check at the FOLD of a panel of the same part (`sim.production.carry_over`): with it and
     `options.same_part_tol` set, only one panel per part (`fabkit.panels.repeats`) is refolded,
     programmed and checked; the others get its results, each recorded with the deviation.
+    `executor`: an open `fabkit.panels.executor.panel_executor` every stage runs on (one pool of
+    workers for the run: imports and caches paid once per worker), instead of one per stage.
     """
     mat = stock() if mat is None else mat
     from fabkit.panels.cache import ResultCache
@@ -218,7 +221,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
             progress("relax+unfold", done[0], None)
 
     geometry = run_panels(layout, panels_options or PanelsOptions(), jobs=jobs, scheduler=scheduler,
-                          progress=geo_progress, cache=cache)
+                          progress=geo_progress, cache=cache, executor=executor)
     seconds["relax_unfold"] = time.perf_counter() - t0
 
     manifest = load_manifest(out)
@@ -270,7 +273,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
             recomputed.add(pid)
             finished += 1
 
-        with panel_executor(jobs, scheduler) as ex:
+        with (contextlib.nullcontext(executor) if executor is not None else panel_executor(jobs, scheduler)) as ex:
             futures = {ex.submit(single_threaded, refold_and_program, tasks[pid]): pid for pid in reps}
             for f in as_completed(futures, timeout=timeout):
                 r = f.result()
