@@ -35,6 +35,7 @@ def main() -> dict:
     from fabkit.generate.pleated import pleated_vault
     from fabkit.nest import NestOptions, nest_panels, write_sheets
     from fabkit.panels.layout import layout_panels
+    from fabkit.panels.executor import panel_executor
     from fabkit.panels.output import write_run
     from fabkit.panels.production import run_production, stock
     from fabkit.panels.production_report import summary
@@ -56,11 +57,13 @@ def main() -> dict:
     with tempfile.TemporaryDirectory(prefix="fabkit-bench-production-") as tmp:
         out = Path(tmp) / "run"
         subset = {p.name for p in layout.panels[:n_prog]}
-        run = run_production(layout, out, cell_toml=CELL.read_bytes().decode("utf-8"), cell_name=CELL.name, program=program_panel,
-                             jobs=jobs, mat=mat, timeout=3600, select=subset, carry=carry_over)
-        t0 = time.perf_counter()
-        write_run(run.geometry, out, plots=False, cut_files=True, jobs=jobs)
-        t_files = time.perf_counter() - t0
+        with panel_executor(jobs) as ex:  # one pool of workers for every stage, as `fabkit panels --cell`
+            run = run_production(layout, out, cell_toml=CELL.read_bytes().decode("utf-8"), cell_name=CELL.name,
+                                 program=program_panel, jobs=jobs, mat=mat, timeout=3600, select=subset,
+                                 carry=carry_over, executor=ex)
+            t0 = time.perf_counter()
+            write_run(run.geometry, out, plots=False, cut_files=True, executor=ex)
+            t_files = time.perf_counter() - t0
         t0 = time.perf_counter()
         nest = nest_panels(run, NestOptions(engine="rows"))
         t_nest = time.perf_counter() - t0

@@ -332,3 +332,15 @@ def test_production_refuses_bad_options_before_any_work(tmp_path):
         r = _run([*base, *extra], timeout=120)
         assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and word in r.stderr, r.stderr
         assert not (tmp_path / "out").exists()
+
+
+def test_a_clamp_face_the_clamp_cannot_hold_is_named_for_every_set_up_with_it():
+    from fabkit.panels.production_refold import clamp_problem
+
+    footprint = {"problems": [{"kind": "holds", "waypoint": 0, "detail": "the clamp footprint leaves clamped face 15: "
+                                                                          "1.5 mm outside (66 mm^2 of 384 mm^2)"}]}
+    bends = {"problems": [{"kind": "collision", "detail": "forearm x face_3"},
+                          {"kind": "holds", "detail": "the clamped face 39 moves 0.535 mm in the fold states"}]}
+    assert clamp_problem(footprint, 15).startswith("clamp face 15: the clamp footprint leaves")
+    assert clamp_problem(footprint, 1) is None and clamp_problem(None, 15) is None
+    assert "moves 0.535 mm" in clamp_problem(bends, 39) and clamp_problem(bends, 3) is None
