@@ -91,6 +91,7 @@ def test_every_panel_is_programmed_and_checked_or_named(produced):
     assert rep["totals"]["panels"] == 4 and len(rep["panels"]) == 4
     # every panel folds on one of its set-ups (either end clamped, the other gripped; either face up)
     assert rep["totals"]["ok"] == 4
+    assert rep["programs_sheet"]["material"] == "1100-H14" and rep["programs_sheet"]["ligament_mm"] == 0.2
     entries = json.loads((out / "manifest.json").read_text())["panels"]
     for p in rep["panels"]:
         assert (out / p["files"]["dxf"]).is_file()

@@ -131,6 +131,7 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     report = summary(run, nesting, mat, layout)
     report["input"] = {"surface": args.surface, "lowpoly": lowpoly, "cell": str(cell_path)}
     report["sheets"] = sheets
+    report["programs_sheet"] = None if spec is None else spec.summary()  # None: the design angles, no loads
     write_book(run, nesting, report, out)
     seconds["book"] = time.perf_counter() - t1
     seconds["total"] = time.perf_counter() - t0

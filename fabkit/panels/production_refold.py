@@ -133,6 +133,8 @@ def _refold(task: dict, setup: Setup) -> tuple[dict | None, str | None, str]:
     seq = solver.solve(fractions, driven, step_of_state, check_intersections=True, notes=notes)
     summary = seq.summary()
     rel = seq.target_distance / seq.panel_size if seq.panel_size > 0 else float("nan")
+    if seq.failed_state >= 0 and seq.failure:  # states after the one that failed were not computed
+        return summary, None, seq.failure
     if not seq.converged.all():
         return summary, None, next((n for n in seq.notes if "did not converge" in n), "a fold state did not converge")
     if not rel <= task["target_tol"]:
