@@ -35,6 +35,7 @@ def main() -> dict:
     from fabkit.generate.pleated import pleated_vault
     from fabkit.nest import NestOptions, nest_panels, write_sheets
     from fabkit.panels.layout import layout_panels
+    from fabkit.panels.executor import panel_executor
     from fabkit.panels.output import write_run
     from fabkit.panels.production import run_production, stock
     from fabkit.panels.production_report import summary
@@ -56,11 +57,13 @@ def main() -> dict:
     with tempfile.TemporaryDirectory(prefix="fabkit-bench-production-") as tmp:
         out = Path(tmp) / "run"
         subset = {p.name for p in layout.panels[:n_prog]}
-        run = run_production(layout, out, cell_toml=CELL.read_text(), cell_name=CELL.name, program=program_panel,
-                             jobs=jobs, mat=mat, timeout=3600, select=subset, carry=carry_over)
-        t0 = time.perf_counter()
-        write_run(run.geometry, out, plots=False, cut_files=True, jobs=jobs)
-        t_files = time.perf_counter() - t0
+        with panel_executor(jobs) as ex:  # one pool of workers for every stage, as `fabkit panels --cell`
+            run = run_production(layout, out, cell_toml=CELL.read_bytes().decode("utf-8"), cell_name=CELL.name,
+                                 program=program_panel, jobs=jobs, mat=mat, timeout=3600, select=subset,
+                                 carry=carry_over, executor=ex)
+            t0 = time.perf_counter()
+            write_run(run.geometry, out, plots=False, cut_files=True, executor=ex)
+            t_files = time.perf_counter() - t0
         t0 = time.perf_counter()
         nest = nest_panels(run, NestOptions(engine="rows"))
         t_nest = time.perf_counter() - t0
@@ -78,6 +81,11 @@ def main() -> dict:
         computed = len({p.name for p in programmed} - set(run.same_as))
         per_panel = run.seconds["refold_program_check"] / max(1, len(programmed))
         with_files = sum(1 for p in run.panels if {"refold", "program", "check"} <= set(p.files) or p.stage)
+        import json
+
+        entries = json.loads((out / "manifest.json").read_text())["panels"]
+        computed_entries = [e for e in entries.values() if e.get("setups") and not e.get("same_as")]
+        tried = sum(sum(s["stage"] != "skipped" for s in e["setups"]) for e in computed_entries)
         rows.append({"case": f"{len(layout.panels)} panels, {len(programmed)} programmed + checked "
                              f"({computed} computed, {len(run.same_as)} as the same part)", "workers": jobs,
                      "seconds": total, "layout s": t_layout, "relax+unfold s": run.seconds["relax_unfold"],
@@ -90,7 +98,9 @@ def main() -> dict:
                      "2 idle cores estimate s (main cpu + workers cpu / 2)": cpu_self + cpu_workers / 2,
                      "ok": sum(p.ok for p in run.panels), "with files or a named reason": with_files,
                      "failed by stage": {k: v for k, v in rep["totals"]["failed_by_stage"].items()},
-                     "robot time min": run.robot_time_s / 60})
+                     "robot time min": run.robot_time_s / 60,
+                     "set-ups tried (refold+plan, computed parts)": tried,
+                     "seconds per computed part (workers)": cpu_workers / max(1, computed)})
         nests = {"rows": nest}
         for engine, limit in (("shelf", 0), ("packingsolver", 10)):
             nests[engine] = nest_panels(run, NestOptions(engine=engine, time_limit=limit))

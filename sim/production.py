@@ -22,41 +22,74 @@ __all__ = ["program_panel", "carry_over"]
 
 @functools.lru_cache(maxsize=4)
 def _cell(cell_toml: str, cell_name: str):
+    """The cell of `cell_toml` (the file's text, read as UTF-8 without newline translation), with
+    the sha256 of the file's bytes as `robot.cell.load_cell` gives it, so `fabkit send` and
+    `fabkit check` of the files written accept them against the cell file."""
     from robot.cell import parse_cell
 
-    return parse_cell(tomllib.loads(cell_toml), cell_name)
+    cell = parse_cell(tomllib.loads(cell_toml), cell_name)
+    return dataclasses.replace(cell, sha256=hashlib.sha256(cell_toml.encode("utf-8")).hexdigest())
 
 
-def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str, thickness: float) -> dict:
-    """Plan and check one panel. Returns {"stage": "program"|"check"|None, "reason", "toolpath"
-    (PATH.json dict or None), "check" (CHECK.json dict or None), "cycle_time_s", "grip_face"}; stage
-    None means both passed."""
-    from fabkit.frames import middle_row_frames
+def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str, thickness: float, *,
+                  grip_face: int | None = None, sheet=None, tool_mass: float | None = None) -> dict:
+    """Plan and check one panel, as `fabkit toolpath` and `fabkit check` do. Returns {"stage":
+    "program"|"check"|None, "reason", "toolpath" (PATH.json dict or None), "check" (CHECK.json dict
+    or None), "cycle_time_s", "grip_face", "loads"}; stage None means both passed.
+
+    `grip_face`: the face the arm grips (None: the planner's choice through the check, as
+    `fabkit toolpath`). `sheet` (`fabkit.sheet.SheetSpec`, not rigid): the program follows the
+    springback-compensated states and carries the sheet and payload records
+    (`robot.sheet_program`, as `fabkit toolpath --material`), and the check rebuilds the sheet
+    from them and checks the fold loads (as `fabkit check`); `thickness` is then the sheet's."""
+    from dataclasses import replace
+
+    from fabkit.errors import InputError, ToleranceError
+    from fabkit.frames import planning_frames
     from fabkit.io.fold import load_fold
+    from robot.grip_choice import approach_variants
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
-    from robot.toolpath import PlanningError, plan_panel
+    from robot.sheet_program import compensated_states, sheet_records
+    from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from sim.check import run_toolpath_check
+    from sim.grip_search import checked_acceptor
 
     cell = _cell(cell_toml, cell_name)
-    out = {"stage": None, "reason": "", "toolpath": None, "check": None, "cycle_time_s": None, "grip_face": None}
+    out = {"stage": None, "reason": "", "toolpath": None, "check": None, "cycle_time_s": None, "grip_face": None,
+           "loads": None}
     with tempfile.TemporaryDirectory(prefix="fabkit-program-") as tmp:  # read back exactly as a file
         path = Path(tmp) / Path(fold_name).name
         path.write_text(fold_text)
-        model = load_fold(path)
-        frames = middle_row_frames(model, source=fold_name)
-        source = {"file": fold_name, "sha256": hashlib.sha256(fold_text.encode()).hexdigest(),
-                  "states": int(frames.n_states)}
+        design = load_fold(path)
+        options = PlanOptions()
+        try:
+            compensated = None if sheet is None else compensated_states(design, sheet, source=fold_name)
+        except (InputError, ToleranceError) as exc:  # springback the sheet cannot reach, a crease too tight
+            return {**out, "stage": "program", "reason": str(exc)}
+        model = design if compensated is None else compensated.model
+        if compensated is not None:  # the cup grips the sheet's top face
+            from fabkit.sheet import front_face_offset
+
+            options = replace(options, grip_standoff=options.grip_standoff + front_face_offset(sheet, "top"))
         try:  # planned as `fabkit toolpath` plans: the clamped face on the cell's clamp
+            frames = planning_frames(model, grip_face, source=fold_name)
+            source = {"file": fold_name, "sha256": hashlib.sha256(fold_text.encode()).hexdigest(),
+                      "states": int(frames.n_states)}
             placement = placement_for(cell, model)
-            res = plan_panel(placed_cell(cell, placement), frames, source=source,
-                             clamped_faces=clamped_faces_of(model), placement=placement)
-        except PlanningError as exc:
+            accept = checked_acceptor(cell, path) if grip_face is None and compensated is None else None
+            res = plan_panel(placed_cell(cell, placement), frames, grip_face=grip_face, options=options, source=source,
+                             clamped_faces=clamped_faces_of(model), placement=placement, accept=accept,
+                             variants=approach_variants(options))
+        except (PlanningError, InputError) as exc:
             return {**out, "stage": "program", "reason": str(exc)}
         tp = res.toolpath
+        if compensated is not None:
+            tp, loads = sheet_records(tp, sheet, design, compensated, cell, res.grip_face, tool_mass)
+            out["loads"] = loads.summary()
         out.update(toolpath=tp.to_json(), grip_face=int(res.grip_face), cycle_time_s=float(res.cycle_time))
-        # the check `fabkit check` runs: arm, panel, holds, the panel's own collisions
-        report = run_toolpath_check(tp, cell, fold=path, thickness=thickness).report
+        # the check `fabkit check` runs: arm, panel, holds, the panel's own collisions, the sheet's loads
+        report = run_toolpath_check(tp, cell, fold=path, thickness=None if compensated is not None else thickness).report
         # the report names the FOLD file it checked: the panel's own name, not this temporary copy
         check = json.loads(json.dumps(report.to_json()).replace(json.dumps(str(path))[1:-1], fold_name))
     out["check"] = check

@@ -67,9 +67,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     g = p.add_argument_group("production run")
     g.add_argument("--cell", metavar="CELL.toml", help="robot cell: refold, program and check every panel")
-    g.add_argument("--material", default="5052-H32",
-                   help="sheet material from `fabkit materials` or a material .toml (default 5052-H32)")
-    g.add_argument("--thickness", default="1mm", help="sheet thickness with its unit (default 1mm)")
     g.add_argument("--frames", type=int, default=8, help="refold states per panel, flat and folded included (default 8)")
     g.add_argument("--overrides", metavar="FILE.json", help='per-panel options, e.g. {"P003_b00_03": {"frames": 12}}')
     g.add_argument("--each-panel", action="store_true",
@@ -84,6 +81,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="nesting engine (default rows: parts at their least height, slid together on shelves; "
                         "packingsolver: sparrow; shelf: bounding-box shelf packing)")
     g.add_argument("--nest-seconds", type=float, default=30.0, help="time limit of the nesting solver (default 30)")
+    from fabkit.commands._sheet import add_sheet_arguments
+
+    add_sheet_arguments(p, tool_mass=True, material_help=(
+        "production run: every program springback-compensated and its fold loads checked for this sheet, as "
+        "`fabkit toolpath/check --material` (a name from `fabkit materials` or a .toml; with --thickness). "
+        "Without it the programs fold the design angles and the sheets are costed as 1 mm 5052-H32"))
     add_common(p)
 
 

@@ -55,10 +55,29 @@ def _overrides(path: str | None) -> dict:
     return data
 
 
+def _sheet_and_stock(args):
+    """(the `SheetSpec` the programs follow, or None for the design angles; the `Stock` the sheets
+    are cut from) of the sheet options."""
+    from fabkit.commands._sheet import sheet_from_args
+    from fabkit.panels.production import stock
+
+    if args.tool_mass is not None and not 0 <= args.tool_mass <= 20:
+        raise InputError(f"{args.tool_mass} kg is not in [0, 20]", source="--tool-mass")
+    if args.material is None and args.thickness is None and args.crease == "plain" and args.ligament is None \
+            and args.bend_radius is None:
+        return None, stock()
+    if args.material is None:
+        raise InputError("--thickness, --crease, --ligament and --bend-radius need a --material", source="--material")
+    spec = sheet_from_args(args)
+    if spec.rigid:
+        raise InputError("a production run cuts real sheet: name a material (`fabkit materials` lists them)",
+                         source="--material")
+    return spec, stock(args.material, spec.thickness)
+
+
 def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     from fabkit.nest import NestOptions, nest_panels, write_sheets
     from fabkit.panels.output import write_run
-    from fabkit.materials import parse_length
     from fabkit.panels.production import ProductionOptions, run_production, stock
     from fabkit.panels.repeats import SAME_PART_TOL
     from fabkit.panels.production_report import summary
@@ -72,7 +91,7 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     from robot.cell import load_cell
 
     load_cell(cell_path)  # refuse a bad cell before any work
-    mat = stock(args.material, parse_length(args.thickness, "--thickness"))
+    spec, mat = _sheet_and_stock(args)
     sheet = _parse_sheet(args.sheet)
     if args.frames < 2:
         raise InputError(f"must be >= 2 (flat and folded), got {args.frames}", source="--frames")
@@ -88,13 +107,17 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     out = Path(args.out)
     t0 = time.perf_counter()
     show = _stage_printer(args)
-    run = run_production(layout, out, cell_toml=cell_path.read_text(), cell_name=cell_path.name,
-                         program=program_panel, panels_options=popts, carry=carry_over,
-                         options=ProductionOptions(frames=args.frames, overrides=overrides,
-                                                   same_part_tol=None if args.each_panel else SAME_PART_TOL),
-                         mat=mat, jobs=args.jobs, scheduler=args.scheduler, progress=show)
-    t1 = time.perf_counter()
-    write_run(run.geometry, out, plots=not args.no_plots, cut_files=True, jobs=args.jobs, scheduler=args.scheduler)
+    from fabkit.panels.executor import panel_executor
+
+    with panel_executor(args.jobs, args.scheduler) as ex:  # one pool of workers for every stage
+        run = run_production(layout, out, cell_toml=cell_path.read_bytes().decode("utf-8"), cell_name=cell_path.name,
+                             program=program_panel, panels_options=popts, carry=carry_over,
+                             options=ProductionOptions(frames=args.frames, overrides=overrides,
+                                                       same_part_tol=None if args.each_panel else SAME_PART_TOL,
+                                                       sheet=spec, tool_mass=args.tool_mass),
+                             mat=mat, jobs=args.jobs, scheduler=args.scheduler, progress=show, executor=ex)
+        t1 = time.perf_counter()
+        write_run(run.geometry, out, plots=not args.no_plots, cut_files=True, executor=ex)
     seconds = dict(run.seconds)
     seconds["geometry_files"] = time.perf_counter() - t1
     t1 = time.perf_counter()
@@ -102,12 +125,13 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
                         time_limit=args.nest_seconds)
     nesting = nest_panels(run, nopts)
     show("nesting", len(nesting.placements), len(layout.panels))
-    sheets = write_sheets(run, nesting, out / "sheets", mat)
+    sheets = write_sheets(run, nesting, out / "sheets", mat, sheet=spec)
     seconds["nesting"] = time.perf_counter() - t1
     t1 = time.perf_counter()
     report = summary(run, nesting, mat, layout)
     report["input"] = {"surface": args.surface, "lowpoly": lowpoly, "cell": str(cell_path)}
     report["sheets"] = sheets
+    report["programs_sheet"] = None if spec is None else spec.summary()  # None: the design angles, no loads
     write_book(run, nesting, report, out)
     seconds["book"] = time.perf_counter() - t1
     seconds["total"] = time.perf_counter() - t0

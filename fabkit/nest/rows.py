@@ -18,7 +18,9 @@ the result is verified with shapely like every nesting (`Nesting.verify`).
 Parts go by decreasing height, each onto the shelf (of any sheet) where it wastes least: the shelf
 area it adds (its length increase times the shelf height) less its own area; so a part follows a
 neighbour it nests with, and small parts fill the shelves of earlier sheets. Shelves are stacked
-with the gap between them, a new sheet when the next shelf does not fit.
+with the gap between them; a new shelf goes on the first sheet with room for it above its shelves
+(so the low shelves of later, shorter parts fill the tops of earlier sheets), a new sheet only
+when no sheet has (measured on the pleated vault: 9 sheets -> 8).
 """
 from __future__ import annotations
 
@@ -167,6 +169,7 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
                                                      round(_slant(variants[i][0][1][0][3]) / 5.0),
                                                      -variants[i][0][2], i))
     shelves: list[_Shelf] = []
+    tops: list[float] = []  # per sheet: where its next shelf would start
     n_sheets = 0
     out: list[Placement] = []
     for i in order:
@@ -189,13 +192,13 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
                 waste = (max(x + w, shelf.right) - max(shelf.right, m)) * shelf.height - area
                 if best is None or waste < best[0] - 1e-9:
                     best = (waste, shelf, x, var)
-        if best is None:
-            top = [s for s in shelves if s.sheet == n_sheets - 1]
-            y = max((s.y + s.height + gap for s in top), default=None)
-            if y is None or y + h > H - m + 1e-9:
+        if best is None:  # a new shelf: on the first sheet with room above its shelves, else a new sheet
+            sheet, y = next(((k, tops[k]) for k in range(n_sheets) if tops[k] + h <= H - m + 1e-9), (n_sheets, m))
+            if sheet == n_sheets:
                 n_sheets += 1
-                y = m
-            shelf = _Shelf(n_sheets - 1, y, h)
+                tops.append(m)
+            tops[sheet] = y + h + gap
+            shelf = _Shelf(sheet, y, h)
             shelves.append(shelf)
             best = (0.0, shelf, m, variants[i][0])
         _, shelf, x, (_, members, w, _) = best

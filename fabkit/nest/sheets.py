@@ -10,9 +10,10 @@ Layers:
 - `GROOVE_TOP` / `GROOVE_BOTTOM` V-groove centre lines of the valley / mountain creases (a groove
   goes on the inside of the bend: the front face for a valley, the back face for a mountain; the
   drawing shows both seen from the front). Depth and angle are in the layer description;
-- `LABEL` engravable text (DXF TEXT, single-line): the panel id at its centre, each neighbour's id
-  next to the side they share, and an orientation arrow pointing from the panel's first arc towards
-  its second (the front face — the surface's outer side — is up on the sheet).
+- `LABEL` engravable text (DXF TEXT, single-line): the panel id at its centre, under it the cut
+  files' face-up mark (`FACE UP: FRONT (valleys fold up); 1 mm 5052-H32`, from the placed
+  drawing's turning sense, `fabkit.cutfiles.pattern.face_up`), each neighbour's id next to the side
+  they share, and an orientation arrow pointing from the panel's first arc towards its second.
 Kerf is not compensated (nominal geometry; the CAM applies it), as the shops expect.
 """
 from __future__ import annotations
@@ -30,9 +31,10 @@ from ezdxf.math import fit_points_to_cad_cv
 from shapely.geometry import LineString
 
 from fabkit.cutfiles.creases import chain_edges, crease_assignment
+from fabkit.cutfiles.pattern import face_up, face_up_text
 from fabkit.io.atomic import atomic_path, atomic_write
 
-__all__ = ["write_sheets", "sheet_drawing", "SPLINE_TOL_MM", "spline_allowance", "spline_deviation", "SHEET_LAYERS"]
+__all__ = ["write_sheets", "sheet_drawing", "sheet_note", "SPLINE_TOL_MM", "spline_allowance", "spline_deviation", "SHEET_LAYERS"]
 
 #: Tolerance [mm] of a crease SPLINE: it passes through every vertex of the crease polyline and may
 #: leave the polyline by at most this plus the polyline's own chord error (the sagitta c^2 k / 8 of
@@ -69,7 +71,7 @@ def _apply(M: np.ndarray, pts: np.ndarray) -> np.ndarray:
 
 
 def _panel_drawing(panel, result, neighbours: dict, M: np.ndarray, name_of, thickness_mm: float,
-                   relief_factor: float) -> dict:
+                   relief_factor: float, face_note: str = "") -> dict:
     """Sheet-coordinate geometry of one panel (see the module docstring)."""
     mesh3d = panel.mesh.with_vertices(result.relaxed)
     uv = np.asarray(result.uv) * 1000.0
@@ -92,7 +94,8 @@ def _panel_drawing(panel, result, neighbours: dict, M: np.ndarray, name_of, thic
                 if int(end) in boundary:
                     reliefs.append(P[end])
     c = P[loop].mean(axis=0)
-    labels = [(name_of(panel.id), c[0], c[1], 0.0, 8.0)]
+    labels = [(name_of(panel.id), c[0], c[1], 0.0, 8.0),  # the cut files' face-up mark, under the id
+              (face_up_text(face_up(panel.mesh, P), face_note), c[0], c[1] - 9.0, 0.0, 3.0)]
     E = panel.mesh.edges
     for other, edges in sorted(neighbours.items()):
         mids = np.array([0.5 * (P[E[e, 0]] + P[E[e, 1]]) for e in edges])
@@ -116,8 +119,10 @@ def _panel_drawing(panel, result, neighbours: dict, M: np.ndarray, name_of, thic
             "arrow": arrow}
 
 
-def sheet_drawing(geometry, nest, sheet: int, thickness_mm: float, relief_factor: float = 1.5) -> list[dict]:
-    """Per panel on `sheet`: its drawing in sheet coordinates (mm)."""
+def sheet_drawing(geometry, nest, sheet: int, thickness_mm: float, relief_factor: float = 1.5,
+                  face_note: str = "") -> list[dict]:
+    """Per panel on `sheet`: its drawing in sheet coordinates (mm); `face_note` follows the face-up
+    mark (`fabkit.cutfiles.pattern.face_up_text`)."""
     layout = geometry.layout
     neighbours: dict[int, dict[int, list[int]]] = {p.id: {} for p in layout.panels}
     for pa, ea, pb, eb in layout.shared_edges:
@@ -129,7 +134,7 @@ def sheet_drawing(geometry, nest, sheet: int, thickness_mm: float, relief_factor
             continue
         panel = layout.panels[p.part]
         d = _panel_drawing(panel, geometry.results[p.part], neighbours[p.part], nest.sheet_transform(p.part),
-                           lambda i: layout.panels[i].name, thickness_mm, relief_factor)
+                           lambda i: layout.panels[i].name, thickness_mm, relief_factor, face_note)
         out.append({"id": panel.name, "panel": p.part, **d})
     return out
 
@@ -143,7 +148,7 @@ def _dxf(drawings: list[dict], sheet_size, thickness_mm: float) -> tuple["ezdxf.
                     "MOUNTAIN": "mountain crease (reference)", "VALLEY": "valley crease (reference)",
                     "GROOVE_TOP": groove + ", front face (valleys)",
                     "GROOVE_BOTTOM": groove + ", back face (mountains), positions seen from the front",
-                    "LABEL": "engrave: panel id, neighbour ids at shared sides, orientation arrow (front up)"}
+                    "LABEL": "engrave: panel id, face-up mark, neighbour ids at shared sides, orientation arrow"}
     for name, (aci, _) in SHEET_LAYERS.items():
         doc.layers.add(name, color=aci).description = descriptions[name]
     msp = doc.modelspace()
@@ -244,9 +249,20 @@ def _png(drawings: list[dict], sheet_size, path: Path, title: str) -> None:
     plt.close(fig)
 
 
+def sheet_note(material, sheet=None) -> str:
+    """What follows the face-up mark on a production sheet: thickness and material, and with a
+    grooved `sheet` (`fabkit.sheet.SheetSpec`) where the grooves go (as `fabkit unfold --material`)."""
+    note = f"{material.thickness * 1000:g} mm {material.name}"
+    if sheet is not None and sheet.prep.kind == "grooved":
+        note += "; grooves on the inside of each fold: valleys front, mountains back"
+    return note
+
+
 def write_sheets(production_or_geometry, nest, folder: str | os.PathLike, material, relief_factor: float = 1.5,
-                 pictures: bool = True) -> list[dict]:
-    """Write sheets/sheet_NN.{dxf,svg,json,png}; returns one summary dict per sheet."""
+                 pictures: bool = True, sheet=None) -> list[dict]:
+    """Write sheets/sheet_NN.{dxf,svg,json,png}; returns one summary dict per sheet. `material`
+    (`fabkit.panels.production.Stock`) and `sheet` (the programs' `SheetSpec` or None) name the
+    sheet after every panel's face-up mark."""
     geometry = getattr(production_or_geometry, "geometry", production_or_geometry)
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -254,7 +270,7 @@ def write_sheets(production_or_geometry, nest, folder: str | os.PathLike, materi
     size = nest.nesting.options.sheet
     out = []
     for s in range(nest.nesting.n_sheets):
-        drawings = sheet_drawing(geometry, nest, s, t_mm, relief_factor)
+        drawings = sheet_drawing(geometry, nest, s, t_mm, relief_factor, sheet_note(material, sheet))
         stem = f"sheet_{s + 1:02d}"
         doc, stats = _dxf(drawings, size, t_mm)
         with atomic_path(folder / f"{stem}.dxf") as tmp:

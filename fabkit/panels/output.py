@@ -5,6 +5,8 @@ when every file succeeded, so a failed run leaves no partial output behind.
 """
 from __future__ import annotations
 
+import contextlib
+
 import os
 import shutil
 import tempfile
@@ -155,10 +157,11 @@ def panel_file_texts(task: dict) -> dict[str, str]:
 
 
 def write_run(run: PanelsRun, out: str | os.PathLike, *, plots: bool = True, cut_files: bool = True,
-              jobs: int = 1, scheduler: str | None = None) -> dict:
+              jobs: int = 1, scheduler: str | None = None, executor=None) -> dict:
     """Write every artifact of `run` into `out` (created if needed); returns the report dict.
 
-    The panels' files are made on `jobs` worker processes (or the dask `scheduler`) and written here;
+    The panels' files are made on `jobs` worker processes (or the dask `scheduler`, or the open
+    `executor` of the run) and written here;
     the staging folder is moved into place only when all of them are written."""
     from fabkit.io.atomic import write_error
     from fabkit.panels.executor import map_ordered, panel_executor
@@ -173,7 +176,8 @@ def write_run(run: PanelsRun, out: str | os.PathLike, *, plots: bool = True, cut
         report = run_report(run)
         tasks = [{"name": p.name, "mesh": p.mesh, "relaxed": r.relaxed, "uv": r.uv, "cut_files": cut_files}
                  for p, r in zip(run.layout.panels, run.results)]
-        with panel_executor(jobs if len(tasks) > 1 else 1, scheduler) as ex:
+        with (contextlib.nullcontext(executor) if executor is not None else
+              panel_executor(jobs if len(tasks) > 1 else 1, scheduler)) as ex:
             for files in map_ordered(ex, panel_file_texts, tasks):
                 for fname, text in files.items():  # the staging folder is the atomic unit (moved at the end)
                     try:

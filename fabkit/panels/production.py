@@ -16,6 +16,7 @@ program and check (`fabkit.panels.repeats`, `same_part_tol`).
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import os
@@ -29,6 +30,7 @@ import numpy as np
 
 from fabkit.errors import InputError
 from fabkit.panels.manifest import MANIFEST, files_intact, load_manifest, store_panel_files, write_manifest
+from fabkit.panels.production_refold import panel_frame_of_task, refold_and_program, refold_inputs
 from fabkit.panels.repeats import SAME_PART_TOL, relabel_fold, same_part_classes, same_part_result
 
 __all__ = ["Stock", "stock", "ProductionOptions", "PanelStatus", "ProductionRun", "refold_inputs",
@@ -37,14 +39,14 @@ __all__ = ["Stock", "stock", "ProductionOptions", "PanelStatus", "ProductionRun"
 
 STAGES = ("relax", "unfold", "refold", "program", "check")
 #: Code salt of the later stages' hash: bump it when their outputs change meaning.
-PROGRAM_SALT = "fabkit.production.program/2"
+PROGRAM_SALT = "fabkit.production.program/3"
 
 
 @dataclass(frozen=True)
 class Stock:
     """The sheet a run cuts: material name, thickness [m] and density [kg/m^3], from the material
-    library (`fabkit.materials`). The run programs the design angles: springback compensation is
-    `fabkit toolpath --material` (docs/sheet.md)."""
+    library (`fabkit.materials`), for the nesting's material and mass. The programs follow
+    `ProductionOptions.sheet` (springback compensation and loads, docs/sheet.md)."""
 
     name: str
     thickness: float
@@ -74,6 +76,10 @@ class ProductionOptions:
     overrides: dict = field(default_factory=dict)   # panel name -> {"frames": n}
     same_part_tol: float | None = SAME_PART_TOL    # panels that are the same part to this [m] share one
                                                     # refold, program and check (None: compute each panel)
+    sheet: object = None                 # fabkit.sheet.SheetSpec: programs springback-compensated and their
+                                         # fold loads checked, as `fabkit toolpath/check --material` (None:
+                                         # the design angles, no loads)
+    tool_mass: float | None = None       # gripper mass [kg] of the payload with a sheet (None: robot's default)
 
 
 @dataclass(frozen=True)
@@ -109,111 +115,6 @@ class ProductionRun:
         return float(sum(p.cycle_time_s or 0.0 for p in self.panels))
 
 
-def _mostly_valley(mesh) -> bool:
-    """True when the panel's creases fold mostly as valleys (seen from its front, FOLD sign +).
-
-    Such a panel is laid back face up, so every panel is folded as mountains seen from above (on
-    the pleated vault in cells/ur5e_bench.toml: 6 of 8 panels plan and check that way, 4 of 8 with
-    the valleys up)."""
-    from fabkit.cutfiles.creases import crease_assignment
-
-    ca = crease_assignment(mesh)
-    c = np.isin(ca.edges_assignment, ("M", "V"))
-    return bool(c.any() and ca.edges_fold_angle[c].sum() > 0)
-
-
-def _clamped_face(fd: dict) -> int | None:
-    """The face the fixture clamps: the middle face of strip 0 (the strip the robot does not move)."""
-    if "middle" not in fd or "strip" not in fd:
-        return None
-    mids = np.flatnonzero((np.asarray(fd["middle"]) != 0) & (np.asarray(fd["strip"]) == 0))
-    return int(mids[0]) if len(mids) else None
-
-
-def _panel_frame(uv: np.ndarray, faces: np.ndarray, fd: dict, clamped: int, side=(0.0, 1.0)) -> np.ndarray:
-    """The flat pattern in the panel frame: the clamped face's centroid at the fixture's origin and
-    the strip the robot folds on the `side` direction from it (a rotation; the pattern is not mirrored)."""
-    c0 = uv[np.unique(faces[clamped])].mean(axis=0)
-    mids = np.flatnonzero((np.asarray(fd["middle"]) != 0) & (np.asarray(fd["strip"]) == 1))
-    if not len(mids):
-        return uv - c0
-    d = uv[np.unique(faces[mids[0]])].mean(axis=0) - c0
-    a = np.arctan2(side[1], side[0]) - np.arctan2(d[1], d[0])
-    R = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
-    return (uv - c0) @ R.T
-
-
-def _task_in_panel_frame(task: dict):
-    """(faces, face data, flat uv in the panel frame, clamped face or None) of a panel task."""
-    faces = np.asarray(task["faces"])
-    fd = {k: np.asarray(v) for k, v in task["face_data"].items()}
-    uv = np.asarray(task["uv"], dtype=np.float64)
-    clamped = _clamped_face(fd)
-    if clamped is not None:
-        uv = _panel_frame(uv, faces, fd, clamped, task.get("side", (0.0, 1.0)))
-    return faces, fd, uv, clamped
-
-
-def refold_inputs(task: dict):
-    """(flat, target, clamped face, laid back up) of a panel task: the flat pattern in the panel
-    frame and the relaxed panel the refold folds it into (faces reversed when the back is up)."""
-    from fabkit.mesh import PolyMesh
-
-    faces, fd, uv, clamped = _task_in_panel_frame(task)
-    target = PolyMesh(np.asarray(task["relaxed"]), faces, face_data=fd)
-    back_up = _mostly_valley(target)
-    if back_up:  # lay the sheet back face up on the fixture: its valleys become mountains seen from above
-        faces = faces[:, ::-1]
-        uv = uv * np.array([1.0, -1.0])
-        target = PolyMesh(np.asarray(task["relaxed"]), faces, face_data=fd)
-    flat = PolyMesh(np.column_stack([uv, np.zeros(len(uv))]), faces, face_data=fd)
-    return flat, target, clamped, back_up
-
-
-def refold_and_program(task: dict) -> dict:
-    """Refold one panel, then program and check it with `task["program"]`. Pure: data in, data out."""
-    from fabkit.fold import validate_fold_model
-    from fabkit.io.fold import fold_text
-    from fabkit.refold import NotAFoldError, RefoldSolver
-    from fabkit.refold.export import to_fold_model
-    from fabkit.refold.sequence import build_schedule
-
-    t0 = time.perf_counter()
-    name = task["name"]
-    out = {"id": task["id"], "name": name, "stage": None, "reason": "", "fold": None, "toolpath": None,
-           "check": None, "cycle_time_s": None, "grip_face": None, "refold": None, "face_up_on_fixture": None}
-    flat, target, clamped, back_up = refold_inputs(task)
-    out["face_up_on_fixture"] = "back" if back_up else "front"
-    try:
-        solver = RefoldSolver(flat, target, fixed_face=clamped, length_rtol=task["length_tol"],
-                              flat_name=f"{name} flat", target_name=f"{name} relaxed")
-        driven, notes = solver.driven_hinges("middle-row")
-    except (NotAFoldError, InputError) as exc:
-        return {**out, "stage": "refold", "reason": str(exc), "seconds": time.perf_counter() - t0}
-    fractions, step_of_state = build_schedule(solver.panel, driven, None, int(task["frames"]))
-    seq = solver.solve(fractions, driven, step_of_state, check_intersections=True, notes=notes)
-    summary = seq.summary()
-    out["refold"] = summary
-    rel = seq.target_distance / seq.panel_size if seq.panel_size > 0 else float("nan")
-    problem = None
-    if not seq.converged.all():
-        problem = next((n for n in seq.notes if "did not converge" in n), "a fold state did not converge")
-    elif not rel <= task["target_tol"]:
-        problem = f"the last fold state is {rel:.3g} of the panel size from the relaxed panel (tol {task['target_tol']:g})"
-    elif summary["states_with_intersections"]:
-        problem = f"faces pass through each other in {summary['states_with_intersections']} fold states"
-    if problem:
-        return {**out, "stage": "refold", "reason": problem, "seconds": time.perf_counter() - t0}
-    model = to_fold_model(seq, title=f"fabkit refold of panel {name}", file_data={"fabkit:panel": name})
-    validate_fold_model(model, source=name)
-    text = fold_text(model)
-    out["fold"] = text
-    prog = task["program"](text, f"{name}_refold.fold", task["cell_toml"], task["cell_name"], task["thickness"])
-    out.update(stage=prog["stage"], reason=prog["reason"], toolpath=prog["toolpath"], check=prog["check"],
-               cycle_time_s=prog["cycle_time_s"], grip_face=prog["grip_face"], seconds=time.perf_counter() - t0)
-    return out
-
-
 def program_task(panel, result, options: ProductionOptions, cell_toml: str, cell_name: str, mat: Stock,
                   program: Callable) -> dict:
     frames = int(options.overrides.get(panel.name, {}).get("frames", options.frames))
@@ -221,17 +122,19 @@ def program_task(panel, result, options: ProductionOptions, cell_toml: str, cell
     return {"id": panel.id, "name": panel.name, "faces": panel.mesh.topology.face_array, "face_data": fd,
             "uv": np.asarray(result.uv), "relaxed": np.asarray(result.relaxed), "frames": frames,
             "target_tol": options.target_tol, "length_tol": options.length_tol, "cell_toml": cell_toml,
-            "cell_name": cell_name, "thickness": mat.thickness, "program": program}
+            "cell_name": cell_name, "thickness": mat.thickness, "program": program, "sheet": options.sheet,
+            "tool_mass": options.tool_mass}
 
 
 def _part(task: dict) -> dict:
     """What `fabkit.panels.repeats.same_part_classes` compares of a panel task: the flat pattern in
-    the panel frame and the relaxed panel (whether the back is laid up follows from the relaxed
-    panel's fold angles, which a rigid motion keeps, so it is not computed here)."""
-    faces, fd, uv, clamped = _task_in_panel_frame(task)
-    exact = {"faces": faces, "clamped": -1 if clamped is None else clamped, "side": tuple(task.get("side", (0.0, 1.0))),
-             **{f"tag:{k}": v for k, v in fd.items()},
+    the panel frame of its first set-up and the relaxed panel (the set-ups follow from the tags and
+    the relaxed panel's fold angles, which a rigid motion keeps)."""
+    uv, setup = panel_frame_of_task(task)
+    fd = {k: np.asarray(v) for k, v in task["face_data"].items()}
+    exact = {"faces": np.asarray(task["faces"]), "setup": tuple(setup), **{f"tag:{k}": v for k, v in fd.items()},
              **{k: task[k] for k in ("frames", "target_tol", "length_tol", "cell_toml", "cell_name", "thickness")},
+             "sheet": repr(task.get("sheet")), "tool_mass": repr(task.get("tool_mass")),
              "program": f"{task['program'].__module__}.{task['program'].__qualname__}"}
     return {"exact": exact, "flat": uv, "target": np.asarray(task["relaxed"], dtype=np.float64)}
 
@@ -284,7 +187,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
                    panels_options=None, options: ProductionOptions = ProductionOptions(),
                    mat: Stock | None = None, jobs: int = 1, scheduler: str | None = None,
                    progress: Callable | None = None, timeout: float | None = None,
-                   select=None, carry: Callable | None = None) -> ProductionRun:
+                   select=None, carry: Callable | None = None, executor=None) -> ProductionRun:
     """Run every stage for every panel of `layout` into folder `out` (see the module docstring).
 
     `program(fold_text, fold_name, cell_toml, cell_name, thickness) -> dict` plans and checks one
@@ -296,6 +199,8 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     check at the FOLD of a panel of the same part (`sim.production.carry_over`): with it and
     `options.same_part_tol` set, only one panel per part (`fabkit.panels.repeats`) is refolded,
     programmed and checked; the others get its results, each recorded with the deviation.
+    `executor`: an open `fabkit.panels.executor.panel_executor` every stage runs on (one pool of
+    workers for the run: imports and caches paid once per worker), instead of one per stage.
     """
     mat = stock() if mat is None else mat
     from fabkit.panels.cache import ResultCache
@@ -316,7 +221,7 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
             progress("relax+unfold", done[0], None)
 
     geometry = run_panels(layout, panels_options or PanelsOptions(), jobs=jobs, scheduler=scheduler,
-                          progress=geo_progress, cache=cache)
+                          progress=geo_progress, cache=cache, executor=executor)
     seconds["relax_unfold"] = time.perf_counter() - t0
 
     manifest = load_manifest(out)
@@ -361,12 +266,14 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
                                   "cycle_time_s": r["cycle_time_s"], "grip_face": r["grip_face"],
                                   "refold": r["refold"], "seconds": r.get("seconds"),
                                   "face_up_on_fixture": r.get("face_up_on_fixture"),
+                                  "clamped_face": r.get("clamped_face"), "setups": r.get("setups"),
+                                  "loads": r.get("loads"),
                                   "same_as": r.get("same_as"), "same_part_deviation_m": r.get("same_part_deviation_m")}
             statuses[pid] = (r["stage"], r["reason"], files, r["cycle_time_s"], r["grip_face"], r.get("same_as"))
             recomputed.add(pid)
             finished += 1
 
-        with panel_executor(jobs, scheduler) as ex:
+        with (contextlib.nullcontext(executor) if executor is not None else panel_executor(jobs, scheduler)) as ex:
             futures = {ex.submit(single_threaded, refold_and_program, tasks[pid]): pid for pid in reps}
             for f in as_completed(futures, timeout=timeout):
                 r = f.result()

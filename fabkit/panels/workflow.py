@@ -16,6 +16,8 @@ Per-panel work is a pure function of its inputs (`panel_task`), run through any 
 """
 from __future__ import annotations
 
+import contextlib
+
 import time
 from dataclasses import dataclass, field
 
@@ -182,10 +184,12 @@ def _map_cached(ex, tasks: list[dict], cache, progress) -> list[dict]:
 
 
 def run_panels(layout: PanelLayout, options: PanelsOptions = PanelsOptions(), *, jobs: int = 1,
-               scheduler: str | None = None, progress=None, cache=None) -> PanelsRun:
+               scheduler: str | None = None, progress=None, cache=None, executor=None) -> PanelsRun:
     """Relax, unfold and make congruent every panel of `layout` (see the module docstring).
 
     `cache`: a `fabkit.panels.cache.ResultCache`; tasks whose inputs it already holds are not run.
+    `executor`: an open `panel_executor` to run on (one pool for every stage of a run) instead of
+    one opened for `jobs` / `scheduler`.
     """
     panels = layout.panels
     n = len(panels)
@@ -222,7 +226,7 @@ def run_panels(layout: PanelLayout, options: PanelsOptions = PanelsOptions(), *,
             relaxed, uv = _mirror_arrays(panels[src], panels[pid], r["relaxed"], r["uv"])
             res[pid] = {**r, "id": pid, "relaxed": relaxed, "uv": uv}
 
-    with panel_executor(jobs, scheduler) as ex:
+    with (contextlib.nullcontext(executor) if executor is not None else panel_executor(jobs, scheduler)) as ex:
         t0 = time.perf_counter()
         for r in _map_cached(ex, [base_tasks[i] for i in solve], cache, progress):
             results[r["id"]] = r

@@ -136,4 +136,22 @@ def compensate_sequence(model: FoldModel, spec: SheetSpec, source: str = "SEQ.fo
         data = {**frame.data, "fabkit:compensated": 1}
         frames.append(dataclasses.replace(frame, vertices_coords=V, edges_fold_angle=angles, data=data))
         programmed[s] = angles
-    return CompensatedSequence(model.with_frames(frames), design, programmed, creases, spec)
+    return CompensatedSequence(_sign_changes_unassigned(model, frames).with_frames(frames), design, programmed,
+                               creases, spec)
+
+
+def _sign_changes_unassigned(model: FoldModel, frames) -> FoldModel:
+    """`model` with the M/V hinges that the compensated `frames` turn through flat assigned U, the
+    refold's rule for a hinge that changes sign during a sequence (`RefoldSolver.assignment`): a
+    near-flat ruling (a pleat's fold by ~1e-4 rad) can change sign when the creases are held at
+    their programmed angles. The FOLD file keeps its own assignment; a crease that changes sign is
+    still refused (`panel_creases` reads the design)."""
+    from fabkit.fold import ANGLE_SLACK
+
+    a = np.asarray(model.edges_assignment).copy()
+    A = np.array([f.edges_fold_angle for f in frames if f.edges_fold_angle is not None]).reshape(-1, len(a))
+    flips = ((a == "V") & np.any(A < -ANGLE_SLACK, axis=0)) | ((a == "M") & np.any(A > ANGLE_SLACK, axis=0))
+    if not flips.any():
+        return model
+    a[flips] = "U"
+    return dataclasses.replace(model, edges_assignment=a)
