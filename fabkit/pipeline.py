@@ -200,12 +200,11 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     from fabkit.io.load import load_fold_model
     from fabkit.sheet import sheet_of
     from robot.cell import load_cell
-    from robot.holds_record import clamped_faces_of
-    from robot.panel_placement import placed_cell, placement_for
+    from robot.plan_cell import plan_in_cell
     from robot.grip_choice import approach_variants
     from robot.sheet_program import compensated_states, sheet_records
     from sim.grip_search import checked_acceptor
-    from robot.toolpath import PlanningError, PlanOptions, plan_panel
+    from robot.toolpath import PlanningError, PlanOptions
     from sim.panel import check_fold_coordinates
 
     _require_ok(folds, "plan")
@@ -241,12 +240,11 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     common = dict(workdir=folder, fold_file=fold_file, cell=cell_obj, cell_file=Path(cell),
                   details={"states": int(frames.n_states), "middle_row": frames.faces.tolist()})
     try:
-        placement = placement_for(cell_obj, model)   # the clamped face on the cell's clamp
-        res = plan_panel(placed_cell(cell_obj, placement), frames, grip_face=grip_face, options=options,
-                         source=source, clamped_faces=clamped_faces_of(model), placement=placement,
-                         # grip faces tried through the check (a sheet program is checked as compensated, later)
-                         accept=None if compensated is not None else checked_acceptor(cell_obj, fold_file),
-                         variants=approach_variants(options) if approach is None else ())
+        res = plan_in_cell(cell_obj, model, frames, grip_face=grip_face, options=options, source=source,
+                           # grip faces tried through the check (a sheet program is checked as compensated, later)
+                           accept=None if compensated is not None else checked_acceptor(cell_obj, fold_file),
+                           variants=approach_variants(options) if approach is None else (),
+                           sheet=compensated is not None, fold_file=fold_file)
     except PlanningError as exc:
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),), **common)
     tp = res.toolpath

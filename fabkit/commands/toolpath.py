@@ -113,11 +113,10 @@ def run(args) -> int:
     from fabkit.commands._loading import load_fold_for
     from robot.cell import load_cell
     from robot.motion import MotionParams
-    from robot.holds_record import clamped_faces_of
-    from robot.panel_placement import placed_cell, placement_for
+    from robot.plan_cell import plan_in_cell
     from sim.grip_search import checked_acceptor
     from robot.grip_choice import approach_variants
-    from robot.toolpath import PlanningError, PlanOptions, plan_panel
+    from robot.toolpath import PlanningError, PlanOptions
     from robot.urscript import PROGRESS_REGISTER, write_urscript
     from sim.panel import check_fold_coordinates
 
@@ -154,11 +153,10 @@ def run(args) -> int:
               "states": int(frames.n_states), "middle_row": frames.faces.tolist()}
     with progress(args, "planning", total=None):
         try:
-            placement = placement_for(cell, model)   # the clamped face on the cell's clamp
-            res = plan_panel(placed_cell(cell, placement), frames, grip_face=args.grip_face, options=options,
-                             source=source, clamped_faces=clamped_faces_of(model), placement=placement,
-                             accept=None if compensated is not None else checked_acceptor(cell, args.fold),
-                             variants=approach_variants(options) if args.approach is None else ())
+            res = plan_in_cell(cell, model, frames, grip_face=args.grip_face, options=options, source=source,
+                               accept=None if compensated is not None else checked_acceptor(cell, args.fold),
+                               variants=approach_variants(options) if args.approach is None else (),
+                               sheet=compensated is not None, fold_file=args.fold)
         except PlanningError as exc:
             print(f"fabkit toolpath: {args.fold}: {exc}", file=sys.stderr)
             write_report(args, {**report, "ok": False, "problems": [exc.as_problem()]})
