@@ -146,3 +146,29 @@ def test_end_clamped_trifold_names_the_arms_that_touch(tmp_path):
     arm_arm = [p for p in report.problems if p.detail.startswith("arm against arm")]
     assert not report.ok and arm_arm
     assert all(p.pair[1].startswith("b_") and not p.pair[0].startswith("b_") for p in arm_arm)
+
+
+def test_interlock_reverifies_both_arms(middle):
+    """The send interlock on a two-arm program: the check must be for this very program (every arm
+    in its hash), every arm keeps the cell's limits, and the check run again passes."""
+    from dataclasses import replace
+
+    from robot.interlock import InterlockError, clear_for_send
+
+    folder, res, report = middle
+    cell = load_cell(DUAL)
+    atp = res.toolpath
+    cleared = clear_for_send(atp, report, cell, base_dir=folder)
+    assert cleared.sha256 == atp.sha256 and isinstance(cleared.toolpath, ArmsToolpath) and cleared.recheck_s > 0
+    # arm b asks for more than the cell's TCP speed, re-sealed with a fresh hash
+    b = atp.arm("b")
+    fast = tuple(replace(w, v=2.9) if w.op == "fold" else w for w in b.waypoints)
+    b_fast = Toolpath(robot=b.robot, cell=b.cell, tcp=b.tcp, source=b.source, waypoints=fast, extra=b.extra,
+                      cell_sha256=b.cell_sha256)
+    forged = ArmsToolpath.build(atp.cell, atp.cell_sha256, atp.source, [("a", atp.arm("a")), ("b", b_fast)],
+                                atp.sync, atp.extra)
+    with pytest.raises(InterlockError, match="does not match the toolpath"):
+        clear_for_send(forged, report, cell, base_dir=folder)
+    forged_check = {**report.to_json(), "toolpath_sha256": forged.sha256}
+    with pytest.raises(InterlockError, match="arm b: waypoint .*TCP speed 2.9 m/s over the cell limit"):
+        clear_for_send(forged, forged_check, cell, base_dir=folder)
