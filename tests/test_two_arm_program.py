@@ -172,3 +172,28 @@ def test_interlock_reverifies_both_arms(middle):
     forged_check = {**report.to_json(), "toolpath_sha256": forged.sha256}
     with pytest.raises(InterlockError, match="arm b: waypoint .*TCP speed 2.9 m/s over the cell limit"):
         clear_for_send(forged, forged_check, cell, base_dir=folder)
+
+
+def test_cli_plans_and_checks_a_two_arm_program(middle, tmp_path):
+    """`fabkit toolpath` and `fabkit check` on the dual cell: the same program as the library's,
+    `--script` refused in one line."""
+    folder, res, _ = middle
+    fold = folder / "fold.fold"
+    run = [sys.executable, "-m", "fabkit"]
+    r = subprocess.run(run + ["toolpath", str(fold), "--cell", str(DUAL), "-o", str(tmp_path / "p.json")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "grip face (28, 36)" in r.stdout or "grip face (36, 28)" in r.stdout
+    d = json.loads((tmp_path / "p.json").read_text())
+    assert d["format"] == FORMAT and [a["name"] for a in d["arms"]] == ["a", "b"]
+    ref = res.toolpath.to_json()
+    for key in ("arms", "sync", "holds", "placement"):
+        assert d[key] == ref[key], key
+    r = subprocess.run(run + ["check", str(tmp_path / "p.json"), "--cell", str(DUAL), "-o", str(tmp_path / "c.json"),
+                              "--fold", str(fold)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and "check: ok" in r.stdout, r.stdout + r.stderr
+    r = subprocess.run(run + ["toolpath", str(fold), "--cell", str(DUAL), "-o", str(tmp_path / "q.json"),
+                              "--script", str(tmp_path / "q.script")], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "lockstep" in r.stderr
+    assert not (tmp_path / "q.json").exists() and not (tmp_path / "q.script").exists()
