@@ -120,3 +120,41 @@ def test_a_fault_on_one_arm_stops_both(job, standins, tmp_path):
     assert stop_a and stop_a[0] - fired["t"] < 1.0
     print(f"arm a stopped {stop_a[0] - fired['t']:.3f} s after the fault on arm b")
     assert any(e.get("step") == "done" and e["arm"] == "a" and "arm b stopped" in (e.get("reason") or "") for e in ev)
+
+
+def _seconds_to_idle(standin, t0, limit=3.0) -> float:
+    while time.monotonic() - t0 < limit:
+        if standin.state()["arm_mode"] == "idle":
+            return time.monotonic() - t0
+        time.sleep(0.005)
+    pytest.fail(f"the arm did not stop within {limit} s: {standin.state()['log_tail'][-5:]}")
+
+
+@pytest.mark.slow
+def test_killing_the_sender_stops_both_arms(job, standins, tmp_path):
+    """`kill -9` of `fabkit send` while arm a folds: each controller's RTDE watchdog stops its arm."""
+    import os
+    import signal
+
+    program, checked = job
+    proc, log = _send(program, checked, standins, tmp_path)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            passed = [e for e in _events(log) if e.get("step") == "sync passed"
+                      and e["waypoint"] == program.toolpath.sync[0]] if log.exists() else []
+            if len(passed) == 2 and standins["a"].state()["arm_mode"] != "idle":
+                break
+            time.sleep(0.01)
+        assert proc.poll() is None, "the send ended before the arms folded"
+        t0 = time.monotonic()
+        os.kill(proc.pid, signal.SIGKILL)
+        dt = {arm: _seconds_to_idle(s, t0) for arm, s in standins.items()}
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(timeout=10)
+    print(f"kill -9 send: arms idle after {dt}")
+    assert max(dt.values()) <= 0.5, dt
+    for s in standins.values():
+        assert "RTDE watchdog" in "\n".join(s.state()["log_tail"])
