@@ -29,7 +29,7 @@ import numpy as np
 
 from sim.problems import KINDS, Event, Problem, merge_events
 
-__all__ = ["run_arms_check", "aligned_joints", "LOCKSTEP_TOL_S"]
+__all__ = ["run_arms_check", "aligned_joints", "aligned_dense", "LOCKSTEP_TOL_S"]
 
 #: Largest difference [s] between two arms' durations of a move that carries the panel.
 LOCKSTEP_TOL_S = 0.002
@@ -40,13 +40,15 @@ def _segment_bounds(atp) -> list[tuple[int, int]]:
     return [(x, y) for x, y in zip(b[:-1], b[1:]) if y > x]
 
 
-def aligned_joints(atp, runs: dict) -> tuple[dict, np.ndarray, np.ndarray]:
-    """Joint rows of every arm at common times of the lockstep program: ({arm: (M, 6)}, waypoint
-    (M,) each row belongs to (the later of the arms' moves), time (M,) from the start)."""
+def aligned_joints(atp, runs: dict) -> dict:
+    """Every arm at common times of the lockstep program: {"joints": {arm: (M, 6)}, "waypoint" (M,)
+    the waypoint each row belongs to (the later of the arms' moves), "at_waypoint" (M,) rows where
+    the first arm stands on its waypoint, "state" (M,) the first arm's fractional fold state, "t"
+    (M,) time from the start}."""
     names = list(runs)
     rows = {n: [] for n in names}
-    wps, times, t0 = [], [], 0.0
-    for a, b in _segment_bounds(atp):
+    wps, times, at, states, t0 = [], [], [], [], 0.0
+    for k, (a, b) in enumerate(_segment_bounds(atp)):
         local = {}
         for n in names:
             d, prog = runs[n].dense, runs[n].program
@@ -54,25 +56,47 @@ def aligned_joints(atp, runs: dict) -> tuple[dict, np.ndarray, np.ndarray]:
             start = int(np.flatnonzero((d.waypoint == a) & d.at_waypoint)[0])
             sel = np.flatnonzero((d.waypoint > a) & (d.waypoint <= b))
             idx = np.r_[start, sel]
-            t = d.t[idx] - d.t[start] - np.r_[0.0, np.full(len(sel), dwell)]
-            local[n] = (np.maximum.accumulate(np.nan_to_num(t, nan=0.0)), d.q[idx], d.waypoint[idx])
+            t = np.maximum.accumulate(np.nan_to_num(d.t[idx] - d.t[start] - np.r_[0.0, np.full(len(sel), dwell)]))
+            keep = np.r_[t[1:] > t[:-1], True]  # configurations at one moment: the last of them
+            at_times = t[d.at_waypoint[idx]]
+            idx, t = idx[keep], t[keep]
+            local[n] = (t, d.q[idx], d.waypoint[idx], np.isin(t, at_times), d.state[idx])
         grid = np.unique(np.concatenate([local[n][0] for n in names]))
+        if k > 0:  # the segment's start is the last row of the one before
+            grid = grid[grid > 0]
         for n in names:
-            t, q, w = local[n]
+            t, q = local[n][:2]
             rows[n].append(np.column_stack([np.interp(grid, t, q[:, j]) for j in range(6)]))
-        w_at = np.max([local[n][2][np.clip(np.searchsorted(local[n][0], grid, side="left"), 0,
-                                                   len(local[n][0]) - 1)] for n in names], axis=0)
-        wps.append(w_at)
+        wps.append(np.max([local[n][2][np.clip(np.searchsorted(local[n][0], grid, side="left"), 0,
+                                                   len(local[n][0]) - 1)] for n in names], axis=0))
+        t_first, _, w_first, at_first, s_first = local[names[0]]
+        on = np.isin(grid, t_first[at_first])
+        wps[-1][on] = w_first[np.searchsorted(t_first, grid[on])]  # the first arm's own waypoint
+        at.append(on)
+        states.append(np.interp(grid, t_first, s_first))
         times.append(t0 + grid)
         t0 += float(grid[-1]) if len(grid) else 0.0
-    return ({n: np.vstack(rows[n]) for n in names}, np.concatenate(wps), np.concatenate(times))
+    return {"joints": {n: np.vstack(rows[n]) for n in names}, "waypoint": np.concatenate(wps),
+            "at_waypoint": np.concatenate(at), "state": np.concatenate(states), "t": np.concatenate(times)}
+
+
+def aligned_dense(aligned: dict):
+    """The common moments as a `sim.interpolate.Dense` with every arm's joints side by side
+    ((M, 6 x arms), the order of `build_cell_model(all_arms=True)`): what the renders draw."""
+    from sim.interpolate import Dense
+
+    t = aligned["t"]
+    dt = np.r_[np.nan, np.diff(t)]
+    return Dense(q=np.concatenate(list(aligned["joints"].values()), axis=1), waypoint=aligned["waypoint"],
+                 at_waypoint=aligned["at_waypoint"], state=aligned["state"], dt=dt, move_v=np.zeros(len(t)), t=t)
 
 
 def _arm_arm_events(atp, cell, runs) -> tuple[list[Event], float | None, tuple | None, int]:
     from sim.arm_contacts import arm_arm_contacts
     from sim.model import build_cell_model
 
-    joints, wp, _ = aligned_joints(atp, runs)
+    aligned = aligned_joints(atp, runs)
+    joints, wp = aligned["joints"], aligned["waypoint"]
     clearance = float(cell.limits.clearance)
     hits = arm_arm_contacts(cell, joints, clearance=clearance, built=build_cell_model(cell, all_arms=True))
     events, worst, pair = [], None, None
@@ -86,7 +110,7 @@ def _arm_arm_events(atp, cell, runs) -> tuple[list[Event], float | None, tuple |
                             pair=h.pair))
         if worst is None or h.distance_m < worst:
             worst, pair = h.distance_m, h.pair
-    return events, worst, pair, len(wp)
+    return events, worst, pair, aligned
 
 
 def _lockstep_problems(atp) -> tuple[list[Problem], dict]:
@@ -112,14 +136,18 @@ def _lockstep_problems(atp) -> tuple[list[Problem], dict]:
 
 
 def _labelled(p: Problem, arm: str) -> Problem:
-    return replace(p, subject=f"{arm}: {p.subject}" if p.subject else arm, detail=f"arm {arm}: {p.detail}")
+    """`p` of one arm's check, named for the arm (its `config` indexes that arm's configurations:
+    dropped)."""
+    return replace(p, subject=f"{arm}: {p.subject}" if p.subject else arm, detail=f"arm {arm}: {p.detail}",
+                   config=None)
 
 
 def run_arms_check(atp, cell, *, fold=None, use_panel: bool = True, thickness=None, settings=None,
                    on_progress=None, base_dir=None):
     """Check `atp` (a `robot.arms_toolpath.ArmsToolpath`) in `cell` (module docstring); returns a
-    `sim.check.ToolpathCheck` whose report covers every arm (`arms`, `lockstep` in CHECK.json)
-    and whose `dense`/`program` are the first arm's."""
+    `sim.check.ToolpathCheck` whose report covers every arm (`arms`, `lockstep` in CHECK.json),
+    whose `dense` holds every arm at the common moments (`aligned_dense`: what the renders draw)
+    and whose `program` is the first arm's."""
     from fabkit.errors import InputError
     from robot.arm_cells import arm_cell, arm_names
     from robot.two_arm_planner import lockstep_timing
@@ -141,7 +169,8 @@ def run_arms_check(atp, cell, *, fold=None, use_panel: bool = True, thickness=No
                                      panel_checks=False)
     problems = [_labelled(p, n) for n, r in runs.items() for p in r.report.problems]
     placed = runs[atp.arm_names[0]].report
-    events, worst, pair, n_aligned = _arm_arm_events(atp, _placed_cell(first, cell), runs)
+    events, worst, pair, aligned = _arm_arm_events(atp, _placed_cell(first, cell), runs)
+    n_aligned = len(aligned["t"])
     problems += merge_events(events)
     lock, lock_record = _lockstep_problems(atp)
     problems += lock
@@ -185,7 +214,8 @@ def run_arms_check(atp, cell, *, fold=None, use_panel: bool = True, thickness=No
                                "arm_arm_pair": list(pair) if pair else None, "segments": timing["segments"],
                                "segment_times_s": timing["arms"]})
     r0 = runs[atp.arm_names[0]]
-    return ToolpathCheck(report=report, dense=r0.dense, program=r0.program, panel=r0.panel, fold_path=fold_path)
+    return ToolpathCheck(report=report, dense=aligned_dense(aligned), program=r0.program, panel=r0.panel,
+                         fold_path=fold_path)
 
 
 def _placed_cell(tp, cell):

@@ -198,3 +198,23 @@ def test_cli_plans_and_checks_a_two_arm_program(middle, tmp_path):
                               "--script", str(tmp_path / "q.script")], capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "lockstep" in r.stderr
     assert not (tmp_path / "q.json").exists() and not (tmp_path / "q.script").exists()
+
+
+def test_renders_draw_both_arms(middle, tmp_path):
+    """The check's configurations of a two-arm program hold both arms at the common moments; the
+    PNG draws the model with both."""
+    from sim.check import run_toolpath_check
+    from sim.render_check import render_waypoint
+
+    folder, res, _ = middle
+    cell = load_cell(DUAL)
+    run = run_toolpath_check(folder / "path.json", cell)
+    assert run.dense.q.shape[1] == 12
+    atp = res.toolpath
+    on = np.flatnonzero(run.dense.at_waypoint)
+    np.testing.assert_allclose(run.dense.q[on[-1], :6], atp.arm("a").waypoints[-1].q, atol=1e-9)
+    # the last moment is the slower arm's arrival; the other waits on its last waypoint
+    np.testing.assert_allclose(run.dense.q[-1, :6], atp.arm("a").waypoints[-1].q, atol=1e-9)
+    np.testing.assert_allclose(run.dense.q[-1, 6:], atp.arm("b").waypoints[-1].q, atol=1e-9)
+    out = render_waypoint(run, cell, tmp_path / "both.png", size=(160, 120))
+    assert (tmp_path / "both.png").stat().st_size > 0 and out["waypoint"] > 0
