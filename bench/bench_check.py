@@ -22,6 +22,11 @@ Panel case (`sim.panel_collision`, which runs once per program, not per arm conf
 folded 15-face and 192-face grid panels in each cell against the obstacles (MuJoCo explicit pairs)
 and themselves (triangle pairs), every state and the motion between sampled every 5 mm of corner
 travel; `panel_samples_per_s` fractional fold states checked per second.
+
+Two-arm case (`sim.arm_contacts.arm_arm_contacts`, the arm-against-arm part of the two-arm check):
+2,000 lockstep configurations of both UR10e of `dual_ur10e` near their homes, 10 mm clearance;
+baseline: the same model collided with every pair MuJoCo makes (each arm's own parts, obstacles)
+and the contacts read one by one.
 """
 from __future__ import annotations
 
@@ -111,6 +116,36 @@ def _grid_faces(fine: bool):
     return mesh.faces_list()
 
 
+def _arm_arm_row() -> dict:
+    """Arm against arm in the two-arm cell (module docstring)."""
+    from robot.cell import load_cell
+    from sim.arm_contacts import arm_arm_contacts
+    from sim.model import build_cell_model
+
+    cell = load_cell(ROOT / "cells" / "dual_ur10e.toml")
+    rng = np.random.default_rng(0)
+    M = 2000
+    joints = {n: np.asarray(mount.home) + rng.normal(0.0, 0.3, (M, 6)) for n, mount in cell.arms}
+    built = build_cell_model(cell, all_arms=True)
+    out = {}
+    t = best_time(lambda: out.update(hits=arm_arm_contacts(cell, joints, clearance=0.01, built=built)), repeat=3)
+    m, names = build_cell_model(cell, all_arms=True)
+    d = mujoco.MjData(m)
+    rows = np.concatenate([joints[n] for n, _ in cell.arms], axis=1)
+
+    def baseline():
+        for k in range(M):
+            d.qpos[:] = rows[k]
+            mujoco.mj_kinematics(m, d)
+            mujoco.mj_collision(m, d)
+            for c in d.contact[:d.ncon]:
+                _ = (c.geom[0], c.geom[1], c.dist)
+
+    t_base = best_time(baseline, repeat=2)
+    return {"configs": M, "contacts": len(out["hits"]), "configs_per_s": M / t, "baseline_per_s": M / t_base,
+            "speedup": t_base / t}
+
+
 def main() -> dict:
     from robot.cell import load_cell
     from sim.check import CheckSettings, check_program, interpolate_program
@@ -154,6 +189,7 @@ def main() -> dict:
             "full_configs_per_s": M / t_full,
         })
     panel_rows = _panel_collision_rows()
+    arm_arm = _arm_arm_row()
     worst_rate = min(r["configs_per_s"] for r in rows if r["faces"] <= 15)
     worst_full = max(r["full_check_s"] for r in rows)
     fine_rate = min(r["configs_per_s"] for r in rows if r["faces"] > 15)
@@ -161,12 +197,14 @@ def main() -> dict:
             "min_configs_per_s_192_faces_near_tool": fine_rate,
             "max_full_check_s": worst_full, "meets_targets": worst_rate >= 20000 and worst_full <= 1.0,
             "baseline": "per-configuration mj_forward + per-configuration limits/singularity calls",
-            "panel_collision": panel_rows,
+            "panel_collision": panel_rows, "arm_arm": arm_arm,
             "min_panel_samples_per_s": min(r["panel_samples_per_s"] for r in panel_rows)}
     out = report("bench_check", rows, meta)
     for r in panel_rows:
         print(f"panel collisions: {r['cell']}, {r['faces']} faces, {r['samples']} fractional states: "
               f"{r['panel_samples_per_s']:,.0f} states/s ({r['contacts']} contacts)")
+    print(f"arm against arm (dual_ur10e): {arm_arm['configs_per_s']:,.0f} configurations/s, baseline "
+          f"{arm_arm['baseline_per_s']:,.0f}/s (x{arm_arm['speedup']:.1f})")
     print(f"min configs/s {worst_rate:,.0f} with a 15-face panel (target 20,000), {fine_rate:,.0f} with the tool "
           f"over a 192-face panel; slowest 2,000-waypoint check {worst_full:.3f} s (target 1 s)")
     return out

@@ -140,10 +140,9 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
     from fabkit.results import Program
     from robot.cell import load_cell
     from robot.grip_choice import approach_variants
-    from robot.holds_record import clamped_faces_of
-    from robot.panel_placement import placed_cell, placement_for
+    from robot.plan_cell import plan_in_cell
     from robot.sheet_program import compensated_states, sheet_records
-    from robot.toolpath import PlanningError, plan_panel
+    from robot.toolpath import PlanningError
     from sim.grip_search import checked_acceptor
     from sim.panel import check_fold_coordinates
 
@@ -166,13 +165,12 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
                   cell=cell, cell_file=Path(cell_file), loaded=loaded,
                   details={"states": int(frames.n_states), "middle_row": frames.faces.tolist()})
     try:
-        placement = placement_for(cell, model)   # the clamped face on the cell's clamp
-        res = plan_panel(placed_cell(cell, placement), frames, grip_face=settings.grip_face, options=options,
-                         source=fold_source(fold_file, frames.n_states), clamped_faces=clamped_faces_of(model),
-                         placement=placement,
-                         # grip faces tried through the check (a sheet program is checked as compensated, later)
-                         accept=None if compensated is not None else checked_acceptor(cell, str(fold_file)),
-                         variants=approach_variants(options) if settings.approach is None else ())
+        res = plan_in_cell(cell, model, frames, grip_face=settings.grip_face, options=options,
+                           source=fold_source(fold_file, frames.n_states),
+                           # grip faces tried through the check (a sheet program is checked as compensated, later)
+                           accept=None if compensated is not None else checked_acceptor(cell, str(fold_file)),
+                           variants=approach_variants(options) if settings.approach is None else (),
+                           sheet=compensated is not None, fold_file=fold_file)
     except PlanningError as exc:
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),),
                        records=(exc.as_problem(),), notes=tuple(notes), **common)

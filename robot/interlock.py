@@ -15,6 +15,10 @@
 4. the check itself, run again here on the exact toolpath, cell and FOLD about to be sent
    (`sim.check.check_toolpath`), passes and agrees with the report.
 
+A program for several arms (`robot.arms_toolpath.ArmsToolpath`) goes through the same steps: its
+hash covers every arm, the limits hold for every arm in the cell as that arm sees it, and the
+check run again is the all-arms check (`sim.check_arms`).
+
 Step 4 makes `robot` import `sim` (lazily, here only): the sender must not trust a report it can
 recompute, and the check is MuJoCo's. `verify_start` is where the arm must stand before a send
 (checked before anything on the controller is changed).
@@ -34,7 +38,7 @@ from robot.path_chunks import SendError, point_segment_distance_nd
 from robot.toolpath import Toolpath, fold_file_of
 
 __all__ = ["CHECK_FORMAT", "CHECK_KEYS", "InterlockError", "CheckFailedError", "Cleared", "clear_for_send",
-           "limit_problems", "verify_start", "StartTolerances"]
+           "limit_problems", "program_limit_problems", "verify_start", "StartTolerances"]
 
 CHECK_FORMAT = "fabkit.check/2"
 CHECK_KEYS = ("format", "toolpath_sha256", "cell_sha256", "fold", "ok", "problems", "robot", "cell", "waypoints")
@@ -125,6 +129,18 @@ def limit_problems(tp: Toolpath, cell: Cell) -> list[str]:
     return out
 
 
+def program_limit_problems(tp, cell: Cell) -> list[str]:
+    """`limit_problems` of a one-arm toolpath, or of every arm of a program for several arms (each
+    in the cell as it sees it, `robot.arm_cells.arm_cell`; messages start with the arm)."""
+    if not hasattr(tp, "arms"):
+        return limit_problems(tp, cell)
+    from robot.arm_cells import arm_cell, arm_names
+
+    if tuple(arm_names(cell)) != tuple(tp.arm_names):
+        return [f"the program is for arms {', '.join(tp.arm_names)}, the cell has {', '.join(arm_names(cell))}"]
+    return [f"arm {n}: {p}" for n, one in tp.arms for p in limit_problems(one, arm_cell(cell, n))]
+
+
 def _fold_of(tp: Toolpath, check: dict, fold, base_dir) -> Path | None:
     """The FOLD file to verify: `fold`, else the report's, else the one the toolpath's source names."""
     if fold is not None:
@@ -138,8 +154,10 @@ def _fold_of(tp: Toolpath, check: dict, fold, base_dir) -> Path | None:
 def clear_for_send(toolpath: Toolpath, check, cell: Cell, *, fold: str | Path | None = None,
                    base_dir: str | Path | None = None) -> Cleared:
     """Run the interlock (module docstring); returns what may be sent or raises `InterlockError`."""
+    from robot.arms_toolpath import toolpath_from_json
+
     doc = toolpath.to_json()
-    tp = Toolpath.from_json(doc, source="toolpath")  # a private copy of exactly the hashed document
+    tp = toolpath_from_json(doc, source="toolpath")  # a private copy of exactly the hashed document
     sha = doc["sha256"]
     rep = check_record(check)
     if not rep["ok"]:
@@ -184,7 +202,7 @@ def clear_for_send(toolpath: Toolpath, check, cell: Cell, *, fold: str | Path | 
     if checked != fold_sha:
         raise InterlockError(f"the check used a FOLD file with sha256 {_short(checked)}, the toolpath's FOLD file "
                              f"{fold_path} has {_short(fold_sha)}")
-    broken = limit_problems(tp, cell)
+    broken = program_limit_problems(tp, cell)
     if broken:
         more = f" (and {len(broken) - 1} more)" if len(broken) > 1 else ""
         raise InterlockError(f"{broken[0]}{more}")

@@ -65,7 +65,8 @@ class PlanOptions:
     at its home angle at the approach pose; max_joint_step: largest joint change between
     consecutive waypoints of a linear move (subdivide otherwise); check_substeps: intermediate poses
     checked on every linear segment; singular_*: refuse waypoints closer than this to a singularity
-    (|sin q3|, |sin q5|, shoulder term in m); params: speeds and blends.
+    (|sin q3|, |sin q5|, shoulder term in m); params: speeds and blends; fold_pieces: at least this
+    many straight pieces for the move into a fold state (arms that fold together move in as many).
     """
 
     approach_distance: float = 0.08
@@ -78,6 +79,7 @@ class PlanOptions:
     singular_wrist: float = K.SINGULARITY_LIMITS.wrist
     singular_shoulder: float = K.SINGULARITY_LIMITS.shoulder_m
     params: MotionParams = MotionParams()
+    fold_pieces: tuple = ()  # ((state, n), ...): the move into fold state `state` in at least n pieces
 
 
 def grip_offset(standoff: float = 0.0, tool_yaw: float = 0.0) -> np.ndarray:
@@ -152,7 +154,7 @@ def _propagate(model, tcp, chain: list[_Target], q0: np.ndarray, branch, opt: Pl
     for i in range(1, len(chain)):
         prev, tgt = out[-1], chain[i]
         subdivide = tgt.op in ("fold", "release")
-        pieces, last_worst = 1, np.inf
+        pieces, last_worst = (dict(opt.fold_pieces).get(tgt.state, 1) if subdivide else 1), np.inf
         while True:
             ts = np.arange(1, pieces + 1) / pieces
             poses = _interp(prev.T, tgt.T, ts) if pieces > 1 else tgt.T[None]

@@ -48,7 +48,7 @@ from robot.preflight import ControllerFault, dashboard_stop, prepare_controller,
 from robot.rtde_worker import CallError, RTDEWorker, WorkerError
 from robot.send_tool import ToolControl
 
-__all__ = ["SendSettings", "SendResult", "SendError", "send_toolpath", "dashboard_stop", "validate_waypoints",
+__all__ = ["SendSettings", "SendResult", "SendError", "send_toolpath", "ArmSender", "dashboard_stop", "validate_waypoints",
            "printed", "chunk_entries", "pose_distance", "point_segment_distance", "point_segment_distance_nd",
            "MAX_JOINT_SPEED", "MAX_JOINT_ACCEL", "MAX_TOOL_SPEED", "MAX_TOOL_ACCEL", "MAX_BLEND"]
 
@@ -78,6 +78,7 @@ class SendSettings:
     watchdog_hz: float = 4.0
     rt_priority: int = -1
     connect_retry_s: float = 3.0  # keep trying the dashboard this long (a controller still starting)
+    hosts: tuple = ()  # a program for several arms: the controllers of the arms after the first (`host`)
 
 
 @dataclass
@@ -109,13 +110,17 @@ class SendResult:
 _Fault = ControllerFault
 
 
-class _Sender:
-    """One send of a cleared toolpath: a worker, the preflight, chunked paths and their monitoring
-    (module docstring). Only `send_toolpath` makes one, after the interlock."""
+class ArmSender:
+    """One send of a cleared toolpath to one controller: a worker, the preflight, chunked paths and
+    their monitoring (module docstring). Only `send_toolpath` makes them, after the interlock; for a
+    program of several arms one per arm, joined by `lockstep` (`robot.lockstep.Lockstep`: chunks
+    also end at its sync waypoints, where the arm waits for the others while its state is polled,
+    and a fault of any arm stops every arm)."""
 
     def __init__(self, cleared: Cleared, settings: SendSettings, log: Callable[[dict], None] | None = None,
-                 on_progress: Callable[[int, dict], None] | None = None):
+                 on_progress: Callable[[int, dict], None] | None = None, lockstep=None, arm: str = "a"):
         self.cleared = cleared
+        self.lockstep, self.arm = lockstep, arm
         self.tp = cleared.toolpath
         self.wps = list(cleared.toolpath.waypoints)
         self.s = settings
@@ -147,6 +152,8 @@ class _Sender:
 
     def poll(self) -> dict:
         """One state sample; raises _Fault on stall, safety stop or a stopped program."""
+        if self.lockstep is not None and self.lockstep.aborted:
+            raise _Fault(self.lockstep.reason_for(self.arm))
         st = self.call("state", timeout=max(1.0, self.s.stall_s * 2))
         now = time.monotonic()
         if st["timestamp"] != self._last_ts:
@@ -282,6 +289,11 @@ class _Sender:
         if o == op and running:
             on_running(progress, st)
 
+    def abort_others(self, reason: str) -> None:
+        """Tell the other arms of a lockstep send to stop (this one stops next)."""
+        if self.lockstep is not None:
+            self.lockstep.abort(self.arm, reason)
+
     def stop_arm(self) -> str:
         """stopL through the control script; if the worker does not answer, kill it and send `stop`
         on a fresh dashboard connection. Nothing to do before the control script was uploaded."""
@@ -335,7 +347,10 @@ class _Sender:
             if not self.call("arm_watchdog", s.watchdog_hz):
                 raise _Fault("the controller refused to arm the RTDE watchdog")
             # chunks end at grip/release waypoints (the arm stops there, the gripper switches)
-            switch = [k for k, w in enumerate(self.wps) if w.op in ("grip", "release")]
+            sync = set(self.lockstep.sync) if self.lockstep is not None else set()
+            switch = [k for k, w in enumerate(self.wps) if w.op in ("grip", "release") or k in sync]
+            if self.lockstep is not None:
+                self.lockstep.wait(self.arm, 0, self.poll)  # every arm ready before any moves
             start, first = s.resume_from, True
             while True:
                 stop = min(start + max(2, s.chunk), n)
@@ -344,6 +359,10 @@ class _Sender:
                 stop = min([stop] + [k + 1 for k in switch if start < k < stop])
                 self.send_chunk(start, stop, result)
                 self.tool.after_waypoint(stop - 1)
+                if stop - 1 in sync:
+                    self.event(step="sync arrived", waypoint=stop - 1)
+                    self.lockstep.wait(self.arm, stop - 1, self.poll)
+                    self.event(step="sync passed", waypoint=stop - 1)
                 first = False
                 if stop == n:
                     break
@@ -353,17 +372,21 @@ class _Sender:
             self.call("stop_script")  # the arm rests on the last waypoint: end the control script
         except _Fault as exc:
             result.reason = str(exc)
+            self.abort_others(result.reason)
             result.events.append(self.stop_arm())
             self.settle_progress()
         except CallError as exc:
             result.reason = f"ur_rtde error: {exc}"
+            self.abort_others(result.reason)
             result.events.append(self.stop_arm())
             self.settle_progress()
         except WorkerError as exc:
             result.reason = f"controller link lost: {exc}"
+            self.abort_others(result.reason)
             result.events.append(self.stop_arm())
         except KeyboardInterrupt:  # Ctrl-C or SIGTERM: stop the arm before giving up
             result.reason = "interrupted"
+            self.abort_others(result.reason)
             result.events.append(self.stop_arm())
             raise
         finally:
@@ -382,7 +405,9 @@ def send_toolpath(toolpath, check, cell, settings: SendSettings, *, fold: str | 
                   on_progress: Callable[[int, dict], None] | None = None) -> SendResult:
     """Send `toolpath` (a `robot.toolpath.Toolpath`) checked by `check` (a `sim.check.CheckReport`
     or the CHECK.json data) in `cell` (a `robot.cell.Cell` loaded from its file), per the module
-    docstring.
+    docstring. A `robot.arms_toolpath.ArmsToolpath` goes to `settings.host` (its first arm) and
+    `settings.hosts` (the others), in lockstep (`robot.lockstep`); it returns a
+    `robot.lockstep.ArmsSendResult`.
 
     `fold`: the FOLD file the toolpath was planned from (default: the one the check used, else the
     one the toolpath's source names, relative to `base_dir`). `log(event)` receives every step,
@@ -393,6 +418,13 @@ def send_toolpath(toolpath, check, cell, settings: SendSettings, *, fold: str | 
     n = len(toolpath)
     if not 0 <= settings.resume_from < n:
         raise SendError(f"--resume-from {settings.resume_from}: the toolpath has waypoints 0-{n - 1}")
+    if hasattr(toolpath, "arms") and settings.resume_from != 0:
+        raise SendError("--resume-from: a program for several arms starts at waypoint 0 (every arm at its start)")
     cleared = clear_for_send(toolpath, check, cell, fold=fold, base_dir=base_dir)
-    validate_waypoints(cleared.toolpath.waypoints)
-    return _Sender(cleared, settings, log=log, on_progress=on_progress).run()
+    for _, one in getattr(cleared.toolpath, "arms", (("a", cleared.toolpath),)):
+        validate_waypoints(one.waypoints)
+    if hasattr(cleared.toolpath, "arms"):
+        from robot.lockstep import send_in_lockstep
+
+        return send_in_lockstep(cleared, settings, log=log, on_progress=on_progress)
+    return ArmSender(cleared, settings, log=log, on_progress=on_progress).run()

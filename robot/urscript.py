@@ -68,7 +68,13 @@ def write_urscript(tp: Toolpath, *, program_name: str | None = None, progress_re
                    grip_output: int | None = None, grip_output_kind: str | None = None,
                    grip_dwell: float | None = None, release_dwell: float | None = None) -> str:
     """The URScript program for `tp` (see module docstring). Gripper settings default to the
-    toolpath's `grip` record (from the cell)."""
+    toolpath's `grip` record (from the cell). A program for several arms has none (one controller
+    program cannot wait for another controller): `InputError`; `fabkit send` drives it in lockstep."""
+    if not isinstance(tp, Toolpath):
+        from fabkit.errors import InputError
+
+        raise InputError("a program for several arms runs in lockstep through `fabkit send`, not as one URScript "
+                         "program per controller", source="--script")
     grip = dict(tp.extra.get("grip", {}))
     out_no = int(grip.get("output", 0) if grip_output is None else grip_output)
     kind = str(grip.get("kind", "tool") if grip_output_kind is None else grip_output_kind)

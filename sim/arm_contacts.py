@@ -58,14 +58,28 @@ def arm_arm_contacts(cell, joints: dict, clearance: float = 0.0, built=None) -> 
     owner = _owner(names, m)
     d = mujoco.MjData(m)
     m.geom_margin[owner >= 0] = np.maximum(m.geom_margin[owner >= 0], clearance)
+    # only pairs of parts of different arms: arm k's parts have contype bit k and collide with
+    # every other arm's bit (obstacles, panel and each arm's own parts are not paired here)
+    bits = np.where(owner >= 0, 1 << np.clip(owner, 0, 30), 0)
+    every = int(np.bitwise_or.reduce(bits[owner >= 0])) if np.any(owner >= 0) else 0
+    saved = m.geom_contype.copy(), m.geom_conaffinity.copy()
+    m.geom_contype[:] = bits
+    m.geom_conaffinity[:] = np.where(owner >= 0, every & ~bits, 0)
     out = []
-    for k in range(M):
-        d.qpos[:] = np.concatenate([q[k] for q in Q])
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_collision(m, d)
-        for c in d.contact[:d.ncon]:
-            a, b = owner[c.geom[0]], owner[c.geom[1]]
-            if a >= 0 and b >= 0 and a != b and c.dist < clearance:
-                ga, gb = (c.geom[0], c.geom[1]) if a < b else (c.geom[1], c.geom[0])
-                out.append(ArmContact(k, (names.geom[ga], names.geom[gb]), float(c.dist)))
+    rows = np.concatenate(Q, axis=1)
+    try:
+        for k in range(M):
+            d.qpos[:] = rows[k]
+            mujoco.mj_kinematics(m, d)
+            mujoco.mj_collision(m, d)
+            if d.ncon == 0:
+                continue
+            geoms, dist = d.contact.geom[:d.ncon], d.contact.dist[:d.ncon]
+            for (g0, g1), dd in zip(geoms, dist):
+                a, b = owner[g0], owner[g1]
+                if a >= 0 and b >= 0 and a != b and dd < clearance:
+                    ga, gb = (g0, g1) if a < b else (g1, g0)
+                    out.append(ArmContact(k, (names.geom[ga], names.geom[gb]), float(dd)))
+    finally:
+        m.geom_contype[:], m.geom_conaffinity[:] = saved
     return out

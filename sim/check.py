@@ -68,9 +68,12 @@ class CheckReport:
     loads: dict | None = None  # the sheet's fold-load verdicts per state (`sim.check_loads`)
     holds: dict | None = None            # sim.check_holds: per-state hold proofs (None: no panel)
     panel_collisions: dict | None = None  # sim.check_panel_collisions (None: no panel)
+    arms: dict | None = None      # a program for several arms: per arm (`sim.check_arms`); None for one arm
+    lockstep: dict | None = None  # a program for several arms: sync, timing, arm against arm
 
     def to_json(self) -> dict:
-        return {
+        multi = {} if self.arms is None else {"arms": self.arms, "lockstep": self.lockstep}
+        return {**multi, 
             "format": FORMAT,
             "toolpath_sha256": self.toolpath_sha256,
             "cell_sha256": self.cell_sha256,
@@ -164,7 +167,7 @@ class ToolpathCheck:
 
 def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_panel: bool = True,
                        thickness: float | None = None, settings: CheckSettings = CheckSettings(),
-                       on_progress=None, sheet=None) -> ToolpathCheck:
+                       on_progress=None, sheet=None, panel_checks: bool = True) -> ToolpathCheck:
     """Check a `robot.toolpath.Toolpath` (or a PATH.json path) in `cell` with its panel.
 
     The panel comes from `fold`, else from the FOLD file the toolpath's source names (relative
@@ -174,14 +177,26 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
     A toolpath with a `sheet` record (or a `sheet`, a `fabkit.sheet.SheetSpec`, given for one
     planned rigid) is also checked for its fold loads per state (`sim.check_loads`); its panel is
     posed in the compensated states the program follows, `thickness` (default: the sheet's) thick.
+
+    A program for several arms (`robot.arms_toolpath.ArmsToolpath`, PATH.json `fabkit.toolpath/3`)
+    is checked by `sim.check_arms.run_arms_check`. `panel_checks=False` leaves out the holds, the
+    panel's own collisions and the clamp footprint (that check runs them once for all arms).
     """
+    from robot.arms_toolpath import ArmsToolpath, load_toolpath
     from robot.toolpath import Toolpath
 
     base_dir = None
-    if isinstance(toolpath, Toolpath):
+    if isinstance(toolpath, (Toolpath, ArmsToolpath)):
         tp = toolpath
     else:
-        tp, base_dir = Toolpath.load(toolpath), Path(toolpath).parent
+        tp, base_dir = load_toolpath(toolpath), Path(toolpath).parent
+    if isinstance(tp, ArmsToolpath):
+        if sheet is not None:
+            raise InputError("a sheet's fold loads are checked for one-arm programs only", source="PATH.json")
+        from sim.check_arms import run_arms_check
+
+        return run_arms_check(tp, cell, fold=fold, use_panel=use_panel, thickness=thickness, settings=settings,
+                              on_progress=on_progress, base_dir=base_dir)
     from sim.check_loads import check_sheet_loads, fold_states_model, resolve_sheet, slab_offset
 
     sha = tp.sha256
@@ -211,7 +226,8 @@ def run_toolpath_check(toolpath, cell, *, fold: str | Path | None = None, use_pa
                   f"checked in {cell.name!r} ({getattr(cell, 'sha256', '')[:12]}…)",)
     report = replace(report, notes=notes,
                      fold=None if fold_path is None else {"path": str(fold_path), "sha256": fold_sha})
-    report = _with_panel_checks(report, tp, prog, cell, model if use_panel else None, fold_path, t)
+    if panel_checks:
+        report = _with_panel_checks(report, tp, prog, cell, model if use_panel else None, fold_path, t)
 
     return ToolpathCheck(report=report, dense=dense, program=prog, panel=panel, fold_path=fold_path)
 

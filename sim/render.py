@@ -40,7 +40,8 @@ def camera_for_cell(cell):
 
 def render_frames(model, cell, configs, *, panel=None, states=None, width: int = 640, height: int = 480,
                   highlight=(), camera=None):
-    """Yield RGB frames (height, width, 3) uint8 for joint configurations `configs` (k, 6).
+    """Yield RGB frames (height, width, 3) uint8 for joint configurations `configs` (k, 6), or
+    (k, 6 x arms) for a model with every arm of the cell.
 
     `states`: fold state per configuration (poses the panel's mocap pieces); `highlight`: geom
     names drawn red (e.g. a collision pair; every piece of a split capsule).
@@ -65,7 +66,7 @@ def render_frames(model, cell, configs, *, panel=None, states=None, width: int =
             raise InputError(f"cannot render offscreen with MUJOCO_GL={os.environ.get('MUJOCO_GL', '(unset)')}: "
                              f"{type(exc).__name__}: {exc}", source="--render") from None
         try:
-            for k, q in enumerate(np.asarray(configs, dtype=np.float64).reshape(-1, 6)):
+            for k, q in enumerate(np.asarray(configs, dtype=np.float64).reshape(-1, model.nq)):  # 6 per arm
                 data.qpos[:] = q
                 if panel is not None:
                     s = 0.0 if states is None else float(states[k])

@@ -47,7 +47,7 @@ def render_waypoint(run, cell, path: str | Path, size: tuple[int, int] = (640, 4
             break
     if j is None:
         raise InputError(f"waypoint {k} has no joint solution to draw", source="--waypoint")
-    m, _ = build_cell_model(cell, run.panel)
+    m, _ = build_cell_model(cell, run.panel, all_arms=dense.q.shape[1] > 6)  # a two-arm check: both arms
     w, h = size
     frame = next(iter(render_frames(m, cell, dense.q[j:j + 1], panel=run.panel, states=dense.state[j:j + 1],
                                     width=w, height=h, highlight=highlight)))
@@ -66,7 +66,7 @@ def render_movie(run, cell, path: str | Path, size: tuple[int, int] = (640, 480)
     if not 2 <= max_frames <= 10000:
         raise InputError(f"must be in 2..10000, got {max_frames}", source="--frames")
     dense = run.dense
-    m, _ = build_cell_model(cell, run.panel)
+    m, _ = build_cell_model(cell, run.panel, all_arms=dense.q.shape[1] > 6)  # a two-arm check: both arms
     idx, speedup = movie_indices(dense.dt, max_frames=max_frames)
     w, h = size
     frames = render_frames(m, cell, dense.q[idx], panel=run.panel, states=dense.state[idx], width=w, height=h)

@@ -86,10 +86,27 @@ def unfold(run: DemoRun, done: dict) -> Outcome:
                                  f"rel. length dev., {s['flipped_faces']} flipped", f"max <= {fmt(flat.max_error)}")
 
 
+def _arms(run: DemoRun) -> tuple[str, ...]:
+    from robot.arm_cells import arm_names
+    from robot.cell import load_cell
+
+    return arm_names(load_cell(run.cell))
+
+
+def _clamp_face(run: DemoRun, done: dict):
+    """A two-arm cell folds with the middle strip clamped and one arm per wing; one arm clamps an
+    end of the row (refold's default)."""
+    if len(_arms(run)) < 2:
+        return None
+    from fabkit.placement import choose_clamp_face
+
+    return choose_clamp_face(done["unfold"].mesh)
+
+
 def refold(run: DemoRun, done: dict) -> Outcome:
     from fabkit.refold.export import plot_fold_angles
 
-    folds = fk.refold(done["unfold"], done["relax"], frames=run.frames,
+    folds = fk.refold(done["unfold"], done["relax"], frames=run.frames, fixed_face=_clamp_face(run, done),
                       title="refold of flat.obj to relaxed.obj")  # the title `fabkit refold` gives these files
     report = folds.to_json()
     if folds.model is not None:
@@ -116,9 +133,11 @@ def toolpath(run: DemoRun, done: dict) -> Outcome:
     report = program.to_json()
     if not program.ok:
         return Outcome(program, report, "", tolerance)
-    script = run.path("program.script")
-    with atomic_write(script) as fh:
-        fh.write(program.urscript())
+    script = None
+    if len(_arms(run)) == 1:  # a two-arm program runs through the lockstep send, not one URScript
+        script = run.path("program.script")
+        with atomic_write(script) as fh:
+            fh.write(program.urscript())
     report = program.report(program.path_file, script)
     step = math.degrees(program.toolpath.extra["checks"]["max_fold_joint_step_rad"])
     return Outcome(program, report, f"{len(program.toolpath)} waypoints, max fold step {fmt(step)} deg, cycle "
@@ -146,11 +165,17 @@ def send(run: DemoRun, done: dict) -> Outcome:
 
     settings = SendSettings(host="")
     tolerance = f"all waypoints, error <= {settings.final_tol_m:g} m / {settings.final_tol_rad:g} rad"
-    with standin(run.cell, run.path("ursim.log")) as host:
-        if host is None:
-            raise InputError("the controller stand-in did not start (see ursim.log)", source="send")
+    import contextlib
+
+    arms = _arms(run)
+    with contextlib.ExitStack() as stack:  # one stand-in per arm, each on its own loopback address
+        logs = ["ursim.log" if len(arms) == 1 else f"ursim_{a}.log" for a in arms]
+        hosts = [stack.enter_context(standin(run.cell, run.path(name), None if len(arms) == 1 else a))
+                 for a, name in zip(arms, logs)]
+        if None in hosts:
+            raise InputError(f"the controller stand-in did not start (see {logs[hosts.index(None)]})", source="send")
         with open(run.path("send.log"), "w", buffering=1, encoding="utf-8") as log:
-            sent = fk.send(done["toolpath"], done["check"], host=host, power_on=True,
+            sent = fk.send(done["toolpath"], done["check"], host=hosts[0], hosts=hosts[1:], power_on=True,
                            log=lambda event: log.write(json.dumps(to_jsonable(event)) + "\n"))
     r = sent.result
     return Outcome(sent, sent.to_json(), f"{r.last_completed + 1}/{r.total} waypoints, final error "

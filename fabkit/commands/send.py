@@ -39,8 +39,9 @@ def add_arguments(parser) -> None:
                         "and checked in")
     parser.add_argument("--fold", metavar="SEQ.fold", help="the FOLD file the toolpath was planned from (default: "
                         "the one the check used, else the one the toolpath names)")
-    parser.add_argument("--host", default=os.environ.get("FABKIT_UR_HOST"),
-                        help="controller address (default: $FABKIT_UR_HOST)")
+    parser.add_argument("--host", action="append", default=None,
+                        help="controller address (default: $FABKIT_UR_HOST); a program for several arms: one "
+                             "--host per arm, in the program's arm order")
     parser.add_argument("--power-on", action="store_true", help="power on and release the brakes if needed")
     parser.add_argument("--unlock", action="store_true",
                         help="unlock a protective stop (>= 5 s old) before sending; inspect its cause first")
@@ -73,16 +74,19 @@ def run(args) -> int:
     from robot.interlock import CheckFailedError, InterlockError
     from robot.send_options import send_option_problem
     from robot.sender import SendError, SendSettings, send_toolpath
-    from robot.toolpath import Toolpath
+    from robot.arms_toolpath import load_toolpath
 
-    problem = send_option_problem(args.host, args.chunk, args.stall)
+    hosts = list(args.host or [os.environ.get("FABKIT_UR_HOST")])
+    args.host = hosts[0]
+    problem = send_option_problem(args.host, args.chunk, args.stall) or next(
+        (p for h in hosts[1:] for p in [send_option_problem(h, args.chunk, args.stall)] if p), None)
     if problem is not None:
         raise InputError(problem[1], source=f"--{problem[0]}")
-    tp = Toolpath.load(args.toolpath)
+    tp = load_toolpath(args.toolpath)
     cell = load_cell(args.cell)
     check = _load_check(args.check)
     settings = SendSettings(host=args.host, chunk=args.chunk, resume_from=args.resume_from,
-                            power_on=args.power_on, unlock=args.unlock, stall_s=args.stall)
+                            power_on=args.power_on, unlock=args.unlock, stall_s=args.stall, hosts=tuple(hosts[1:]))
     job = dict(check=check, cell=cell, fold=args.fold, base_dir=os.path.dirname(args.toolpath) or ".")
     try:
         with _log_file(args.log) as log, _sigterm_interrupts():
@@ -97,14 +101,17 @@ def run(args) -> int:
         raise InputError(str(exc), source=args.toolpath) from None
     n = len(tp)
     if result.ok:
-        say(args, f"sent {n - args.resume_from} of {n} waypoints to {args.host} in {result.elapsed_s:.1f} s "
+        say(args, f"sent {n - args.resume_from} of {n} waypoints to {', '.join(hosts)} in {result.elapsed_s:.1f} s "
                   f"({result.chunks_sent} path chunk(s)); final pose off by {result.final_error_m * 1e3:.4f} mm, "
                   f"{result.final_error_rad * 1e3:.4f} mrad; path rounding <= {result.quantisation_m * 1e6:.2f} um")
     else:
         nxt = result.last_completed + 1
-        print(f"fabkit send: stopped: {result.reason}; last completed waypoint {result.last_completed} of {n - 1}"
-              + (f"; continue with --resume-from {nxt}" if 0 <= nxt < n else ""), file=sys.stderr)
-    write_report(args, {"ok": result.ok, "sent": True, "host": args.host, "toolpath": args.toolpath,
+        per_arm = getattr(result, "last_completed_per_arm", None)
+        last = (", ".join(f"arm {a} {k}" for a, k in per_arm.items()) if per_arm else result.last_completed)
+        print(f"fabkit send: stopped: {result.reason}; last completed waypoint {last} of {n - 1}"
+              + (f"; continue with --resume-from {nxt}" if 0 <= nxt < n and not per_arm else ""), file=sys.stderr)
+    write_report(args, {"ok": result.ok, "sent": True, "host": args.host if len(hosts) == 1 else hosts,
+                        "toolpath": args.toolpath,
                         "toolpath_sha256": tp.sha256, "resume_from": args.resume_from, **result.to_json()})
     return 0 if result.ok else 1
 

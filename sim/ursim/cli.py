@@ -33,6 +33,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="loopback address to listen on (default 127.0.0.1)")
     parser.add_argument("--cell", metavar="CELL.toml", help="robot cell: model, home pose, TCP, obstacles "
                         "(collisions cause a protective stop)")
+    parser.add_argument("--arm", metavar="NAME", help="with --cell: which of the cell's arms this controller is "
+                        "(\"a\" the [robot] arm, else an [[arms]] name; default a)")
     parser.add_argument("--model", choices=("ur5e", "ur10e"), help="robot model without a cell (default ur5e)")
     parser.add_argument("--version", default="5.15.0.0", help="controller software version to report "
                         "(5.x: e-Series, 500 Hz; 3.x: CB3, 125 Hz; default 5.15.0.0)")
@@ -99,6 +101,10 @@ def config_from_args(args):
         from sim.ursim.collision import CellCollision
 
         cell = load_cell(args.cell)
+        if args.arm:
+            from robot.arm_cells import arm_cell
+
+            cell = arm_cell(cell, args.arm)
         if args.model and args.model != cell.robot.model:
             raise InputError(f"--model {args.model} contradicts the cell's robot {cell.robot.model}", source=args.cell)
         model, q0 = cell.robot.model, tuple(float(v) for v in cell.robot.home)

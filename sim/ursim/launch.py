@@ -48,10 +48,12 @@ def wait_for_dashboard(host: str, timeout: float = 20.0) -> bool:
     return False
 
 
-def start_standin(host: str, cell: str | None, log: Path) -> subprocess.Popen:
+def start_standin(host: str, cell: str | None, log: Path, arm: str | None = None) -> subprocess.Popen:
     argv = [sys.executable, "-m", "fabkit", "ursim", "--host", host]
     if cell:
         argv += ["--cell", cell]
+    if arm:
+        argv += ["--arm", arm]
     import os
     import signal
 
@@ -74,12 +76,39 @@ def stop_standin(proc: subprocess.Popen, timeout: float = 5.0) -> None:
 
 
 @contextlib.contextmanager
-def standin(cell: str | None, log: Path):
+def standin(cell: str | None, log: Path, arm: str | None = None):
     """A controller stand-in on a free loopback address for the block -> its address; None when it
-    did not start (its output is in `log`). Always shut down on leaving."""
-    host = free_loopback_address()
-    proc = start_standin(host, cell, log)
+    did not start (its output is in `log`). Always shut down on leaving. `arm`: which arm of the
+    cell it is (`fabkit ursim --arm`)."""
+    import random
+
+    first = random.randint(2, 200)  # other runs on this machine scan from the start too
+    for _ in range(5):  # an address taken between the scan and the bind: the next one
+        try:
+            host = free_loopback_address(first)
+        except RuntimeError:  # none free above `first`: scan from the start
+            host = free_loopback_address()
+        proc = start_standin(host, cell, log, arm)
+        if _own_ready(proc, host, log):
+            break
+        stop_standin(proc)
+        first = int(host.rsplit(".", 1)[1]) + 1
+    else:
+        yield None
+        return
     try:
-        yield host if wait_for_dashboard(host) else None
+        yield host
     finally:
         stop_standin(proc)
+
+
+def _own_ready(proc: subprocess.Popen, host: str, log: Path, timeout: float = 20.0) -> bool:
+    """True once *this* stand-in process says it is ready (not another process that took the
+    address first); False when it exits or does not get ready in time."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and proc.poll() is None:
+        with contextlib.suppress(OSError):
+            if f"ursim: ready on {host}" in Path(log).read_text(errors="replace"):
+                return wait_for_dashboard(host, timeout=max(0.1, deadline - time.monotonic()))
+        time.sleep(0.05)
+    return False

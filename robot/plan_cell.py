@@ -1,0 +1,48 @@
+"""The planner entry for any cell: the panel placed on the clamp, then one arm or two.
+
+`plan_in_cell` is what `fabkit toolpath` and `fabkit.pipeline.plan` call. It puts the FOLD file's
+clamped face on the cell's clamp (`robot.panel_placement`), records the clamped faces, and plans
+with `robot.planner.plan_panel` for a one-arm cell (PATH.json `fabkit.toolpath/2`) or with
+`robot.two_arm_planner.plan_two_arms` for a cell with two arms (`fabkit.toolpath/3`).
+"""
+from __future__ import annotations
+
+from fabkit.errors import InputError
+
+__all__ = ["plan_in_cell"]
+
+
+def plan_in_cell(cell, fold_model, frames, *, grip_face: int | None = None, options=None, source: dict | None = None,
+                 accept=None, variants=(), sheet: bool = False, fold_file=None):
+    """Plan the fold of `fold_model` (its planning frames `frames`) in `cell` (module docstring).
+    `grip_face`: the face to grip (a two-arm cell: one of the two); `accept`: the checker
+    (`sim.grip_search.checked_acceptor`), asked for each candidate that plans; `variants`: further
+    `PlanOptions` a one-arm cell tries per face; `sheet`: the program follows a sheet's compensated
+    states (one-arm cells only). Returns a `robot.planner.PlanResult` or a
+    `robot.two_arm_planner.ArmsPlanResult`; raises `robot.planner.PlanningError`."""
+    from robot.holds_record import clamped_faces_of
+    from robot.panel_placement import placed_cell, placement_for
+    from robot.planner import PlanOptions, plan_panel
+
+    options = options or PlanOptions()
+    placement = placement_for(cell, fold_model)   # the clamped face on the cell's clamp
+    placed = placed_cell(cell, placement)
+    clamped = clamped_faces_of(fold_model)
+    if len(cell.arms) == 1:
+        return plan_panel(placed, frames, grip_face=grip_face, options=options, source=source,
+                          clamped_faces=clamped, placement=placement, accept=accept, variants=variants)
+    if sheet:
+        raise InputError("a sheet material (springback compensation, fold loads) is planned for one-arm cells only",
+                         source=cell.source or None)
+    from robot.two_arm_planner import hold_pairs, plan_two_arms
+
+    name = None if fold_file is None else str(fold_file)
+    grip_faces = None
+    if grip_face is not None:
+        pairs = [p for p in hold_pairs(fold_model, frames, clamped, source=name) if int(grip_face) in p]
+        if not pairs:
+            raise InputError(f"face {grip_face} is in no pair of faces that holds the panel with two arms",
+                             source="--grip-face")
+        grip_faces = pairs[0]
+    return plan_two_arms(placed, fold_model, frames, options=options, source=source, clamped_faces=clamped,
+                         placement=placement, grip_faces=grip_faces, accept=accept, fold_source_name=name)

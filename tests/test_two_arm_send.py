@@ -1,0 +1,160 @@
+"""Lockstep send of a two-arm program: two controller stand-ins on two loopback addresses, one
+ur_rtde worker per arm, every sync waypoint reached by both arms before either goes on, and a
+fault of one arm stopping both."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests._ursim import ROOT, StandIn, external_host
+
+DUAL = ROOT / "cells" / "dual_ur10e.toml"
+
+pytestmark = pytest.mark.skipif(external_host() is not None, reason="two stand-ins with fault injection")
+
+
+@pytest.fixture(scope="module")
+def job(tmp_path_factory):
+    """The middle-clamped tri-fold (3 fold states) planned and checked in the dual cell."""
+    import fabkit.pipeline as fk
+
+    folder = tmp_path_factory.mktemp("dualjob")
+    flat = fk.unfold(fk.relax(fk.generate("trifold")))
+    folds = fk.refold(flat, frames=3, fixed_face=4)
+    program = fk.plan(folds, DUAL, workdir=folder)
+    assert program.ok, program.problems
+    checked = fk.check(program)
+    assert checked.ok, checked.problems
+    return program, checked
+
+
+@pytest.fixture()
+def standins(tmp_path):
+    arms = {}
+    try:
+        for arm in ("a", "b"):
+            arms[arm] = StandIn("--cell", str(DUAL), "--arm", arm, "--unlock-delay", "0.2", "-v",
+                                log=tmp_path / f"ursim_{arm}.log")
+        yield arms
+    finally:
+        for s in arms.values():
+            s.stop()
+
+
+def _send(program, checked, standins, tmp_path, **popen):
+    log = tmp_path / "send.log"
+    cmd = [sys.executable, "-m", "fabkit", "send", str(program.path_file), "--check", str(checked.check_file),
+           "--cell", str(DUAL), "--host", standins["a"].host, "--host", standins["b"].host, "--log", str(log),
+           "--report", str(tmp_path / "send.json")]
+    return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen), log
+
+
+def _events(log: Path) -> list[dict]:
+    return [json.loads(line) for line in log.read_text().splitlines() if line.strip()]
+
+
+def test_both_arms_fold_in_lockstep(job, standins, tmp_path):
+    program, checked = job
+    atp = program.toolpath
+    proc, log = _send(program, checked, standins, tmp_path)
+    out, err = proc.communicate(timeout=240)
+    assert proc.returncode == 0, err + "".join(s.log_text()[-1500:] for s in standins.values())
+    for arm, s in standins.items():
+        q_end = np.array(atp.arm(arm).waypoints[-1].q)
+        np.testing.assert_allclose(s.state()["q"], q_end, atol=1e-4)
+    ev = _events(log)
+    for k in atp.sync:  # both arms arrive at every sync waypoint before either passes it
+        arrived = [e["t"] for e in ev if e.get("step") == "sync arrived" and e["waypoint"] == k]
+        passed = [e["t"] for e in ev if e.get("step") == "sync passed" and e["waypoint"] == k]
+        assert len(arrived) == len(passed) == 2, k
+        assert max(arrived) <= min(passed) + 1e-3
+    report = json.loads((tmp_path / "send.json").read_text())
+    assert report["ok"] and report["last_completed_per_arm"] == {"a": len(atp) - 1, "b": len(atp) - 1}
+    assert {e["arm"] for e in ev if e.get("call") == "move_path"} == {"a", "b"}
+
+
+def test_a_fault_on_one_arm_stops_both(job, standins, tmp_path):
+    """A protective stop on arm b's controller once both arms passed the first fold state: arm a
+    stops too, and the report names each arm's last completed waypoint."""
+    program, checked = job
+    atp = program.toolpath
+    trigger = atp.sync[1]          # the first fold state
+    proc, log = _send(program, checked, standins, tmp_path)
+    fired = {}
+
+    def inject():
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            if log.exists() and sum(1 for e in _events(log) if e.get("step") == "sync passed"
+                                    and e["waypoint"] == trigger) == 2:
+                fired["t"] = time.time()
+                standins["b"].admin("protective_stop")
+                return
+            time.sleep(0.02)
+
+    th = threading.Thread(target=inject)
+    th.start()
+    out, err = proc.communicate(timeout=240)
+    th.join(10)
+    assert "t" in fired, err
+    assert proc.returncode == 1, err
+    # the fault names arm b (the stop itself, or its controller refusing the next path under it)
+    assert "stopped: arm b:" in err and "arm a" in err, err
+    report = json.loads((tmp_path / "send.json").read_text())
+    last = report["last_completed_per_arm"]
+    nxt = atp.sync[2]
+    assert all(trigger <= k < nxt for k in last.values()), last
+    # arm a is at rest: its joints do not change any more
+    qa = np.array(standins["a"].state()["q"])
+    time.sleep(0.2)
+    np.testing.assert_allclose(standins["a"].state()["q"], qa, atol=1e-9)
+    ev = _events(log)
+    stop_a = [e["t"] for e in ev if e.get("step") == "stop" and e["arm"] == "a"]
+    assert stop_a and stop_a[0] - fired["t"] < 1.0
+    print(f"arm a stopped {stop_a[0] - fired['t']:.3f} s after the fault on arm b")
+    assert any(e.get("step") == "done" and e["arm"] == "a" and "arm b stopped" in (e.get("reason") or "") for e in ev)
+
+
+def _seconds_to_idle(standin, t0, limit=3.0) -> float:
+    while time.monotonic() - t0 < limit:
+        if standin.state()["arm_mode"] == "idle":
+            return time.monotonic() - t0
+        time.sleep(0.005)
+    pytest.fail(f"the arm did not stop within {limit} s: {standin.state()['log_tail'][-5:]}")
+
+
+@pytest.mark.slow
+def test_killing_the_sender_stops_both_arms(job, standins, tmp_path):
+    """`kill -9` of `fabkit send` while arm a folds: each controller's RTDE watchdog stops its arm."""
+    import os
+    import signal
+
+    program, checked = job
+    proc, log = _send(program, checked, standins, tmp_path)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            passed = [e for e in _events(log) if e.get("step") == "sync passed"
+                      and e["waypoint"] == program.toolpath.sync[0]] if log.exists() else []
+            if len(passed) == 2 and standins["a"].state()["arm_mode"] != "idle":
+                break
+            time.sleep(0.01)
+        assert proc.poll() is None, "the send ended before the arms folded"
+        t0 = time.monotonic()
+        os.kill(proc.pid, signal.SIGKILL)
+        dt = {arm: _seconds_to_idle(s, t0) for arm, s in standins.items()}
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(timeout=10)
+    print(f"kill -9 send: arms idle after {dt}")
+    assert max(dt.values()) <= 0.5, dt
+    for s in standins.values():
+        assert "RTDE watchdog" in "\n".join(s.state()["log_tail"])
