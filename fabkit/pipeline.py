@@ -202,7 +202,7 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
     from robot.cell import load_cell
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
-    from robot.grip_choice import approach_variants
+    from robot.grip_choice import grip_variants
     from robot.sheet_program import compensated_states, sheet_records
     from sim.grip_search import checked_acceptor
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
@@ -231,9 +231,11 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
              "tool_yaw": None if tool_yaw is None else math.radians(tool_yaw),
              "max_joint_step": None if max_joint_step is None else math.radians(max_joint_step)}
     options = replace(options, **{k: v for k, v in given.items() if v is not None})
-    if not spec.rigid:  # the cup grips the sheet's top face
-        from fabkit.sheet import front_face_offset
+    back_standoff = options.grip_standoff
+    if not spec.rigid:  # the cup grips the sheet's top face (or its back face)
+        from fabkit.sheet import back_face_offset, front_face_offset
 
+        back_standoff = options.grip_standoff + back_face_offset(spec, design_surface)  # the cup on the back face
         options = replace(options, grip_standoff=options.grip_standoff + front_face_offset(spec, design_surface))
     if fold_speed is not None:
         options = replace(options, params=replace(options.params, fold_speed=fold_speed))
@@ -246,7 +248,8 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
                          source=source, clamped_faces=clamped_faces_of(model), placement=placement,
                          # grip faces tried through the check (a sheet program is checked as compensated, later)
                          accept=None if compensated is not None else checked_acceptor(cell_obj, fold_file),
-                         variants=approach_variants(options) if approach is None else ())
+                         variants=grip_variants(options, vary_approach=approach is None,
+                                                back_standoff=back_standoff))
     except PlanningError as exc:
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),), **common)
     tp = res.toolpath

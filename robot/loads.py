@@ -245,14 +245,15 @@ def payload_record(cell, waypoints, panel_mass: float, panel_cog, tool_mass: flo
             "note": "held = tool + the whole panel (the clamp carries part of it); tool CoG half-way to the TCP"}
 
 
-def toolpath_loads(spec, model, creases, grip_face: int, cell, payload_mass: float) -> LoadReport:
+def toolpath_loads(spec, model, creases, grip_face: int, cell, payload_mass: float,
+                   side: str = "front") -> LoadReport:
     """The load check of a fold program: every crease the arm folds (`fabkit.sheet.creases.arm_folds`,
-    from the design FOLD `model`) in every state, on the cell's arm and cup."""
+    from the design FOLD `model`) in every state, on the cell's arm and cup gripping `side`."""
     from fabkit.sheet.creases import arm_folds
     from fabkit.sheet.loads import fold_moment
 
     fixed = model.file_data.get("fabkit:fixed_face")
-    folds = arm_folds(model, creases, grip_face, None if fixed is None else int(fixed))
+    folds = arm_folds(model, creases, grip_face, None if fixed is None else int(fixed), side=side)
     states: list[list[CreaseLoad]] = [[] for _ in range(model.n_frames)]
     for f in folds:
         states[f.state].append(CreaseLoad(fold_moment(spec, f.crease.length, f.crease.name), f.lever, f.pull))

@@ -5,8 +5,9 @@ and takes the first that plans; a face that plans can still fail the check (the 
 hits the panel, a wing left free). `checked_acceptor` gives the planner the full check of each
 candidate (`sim.check.check_toolpath`, exactly what `fabkit check` runs, panel from the FOLD
 file), so the first face whose program passes is chosen. At most `max_checks` candidates are
-checked (each check takes seconds); when none passes, the planner returns the first that planned
-and the check stage names its problems.
+checked per grip side (each check takes a fraction of a second to seconds; the planner tries
+every face on the front side before the back side, `robot.grip_choice`); when none passes, the
+planner returns the first that planned and the check stage names its problems.
 """
 from __future__ import annotations
 
@@ -14,27 +15,29 @@ from pathlib import Path
 
 __all__ = ["checked_acceptor", "MAX_CHECKS"]
 
-#: Candidates checked at most per plan.
+#: Candidates checked at most per plan and grip side.
 MAX_CHECKS = 4
 
 
 def checked_acceptor(cell, fold_file: str | Path, max_checks: int = MAX_CHECKS):
     """`accept(PlanResult) -> problem or None` for `plan_panel`: None when the candidate's toolpath
     passes the check in `cell` with the panel of `fold_file`, else its first problem (and after
-    `max_checks` checks every further candidate is refused unchecked)."""
+    `max_checks` checks on a grip side every further candidate on that side is refused unchecked)."""
     from sim.check import check_toolpath
 
-    done = []
+    done: dict[str, list[int]] = {}
 
     def accept(res) -> str | None:
-        if len(done) >= max_checks:
-            return f"not checked (the first {max_checks} candidates that planned were checked)"
-        done.append(res.grip_face)
+        side = str(res.toolpath.extra.get("grip", {}).get("side", "front"))
+        checked = done.setdefault(side, [])
+        if len(checked) >= max_checks:
+            return f"not checked (the first {max_checks} candidates that planned on the {side} side were checked)"
+        checked.append(res.grip_face)
         report = check_toolpath(res.toolpath, cell, fold=fold_file)
         if report.ok:
             return None
         p = report.problems[0]
         more = f" (+{len(report.problems) - 1} more)" if len(report.problems) > 1 else ""
-        return f"check: waypoint {p.waypoint}: {p.kind}: {p.detail}{more}"
+        return f"{side} side: check: waypoint {p.waypoint}: {p.kind}: {p.detail}{more}"
 
     return accept

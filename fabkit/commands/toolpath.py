@@ -116,7 +116,7 @@ def run(args) -> int:
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
     from sim.grip_search import checked_acceptor
-    from robot.grip_choice import approach_variants
+    from robot.grip_choice import grip_variants
     from robot.toolpath import PlanningError, PlanOptions, plan_panel
     from robot.urscript import PROGRESS_REGISTER, write_urscript
     from sim.panel import check_fold_coordinates
@@ -145,6 +145,9 @@ def run(args) -> int:
     from fabkit.sheet import front_face_offset  # sheet hook: the cup grips the sheet's top face
 
     standoff = args.standoff + (0.0 if spec.rigid else front_face_offset(spec, args.design_surface))
+    from fabkit.sheet import back_face_offset  # a cup on the back touches the back face
+
+    back_standoff = args.standoff + (0.0 if spec.rigid else back_face_offset(spec, args.design_surface))
     options = PlanOptions(approach_distance=PlanOptions().approach_distance if args.approach is None else args.approach,
                           grip_standoff=standoff,
                           tool_yaw=None if args.tool_yaw is None else math.radians(args.tool_yaw),
@@ -158,7 +161,8 @@ def run(args) -> int:
             res = plan_panel(placed_cell(cell, placement), frames, grip_face=args.grip_face, options=options,
                              source=source, clamped_faces=clamped_faces_of(model), placement=placement,
                              accept=None if compensated is not None else checked_acceptor(cell, args.fold),
-                             variants=approach_variants(options) if args.approach is None else ())
+                             variants=grip_variants(options, vary_approach=args.approach is None,
+                                                    back_standoff=back_standoff))
         except PlanningError as exc:
             print(f"fabkit toolpath: {args.fold}: {exc}", file=sys.stderr)
             write_report(args, {**report, "ok": False, "problems": [exc.as_problem()]})
