@@ -2,9 +2,9 @@
 
 `grip_order`: the middle-row faces that move, largest motion first (the far end of the row, refold
 clamping the first strip); `approach_variants`: other approach/retract distances for a face that
-does not plan or pass at the given one; `grip_variants`: those on the front side, then the same on
-the back side (the cup's approach axis along +normal instead of -normal, its standoff measured
-behind the design surface: a valley folded to 175 deg closes the wing over a cup on the front).
+does not plan or pass at the given one; `grip_variants`: those on the front side, then the back
+side (the cup's approach axis along +normal instead of -normal, its standoff measured behind the
+design surface: a valley folded to 175 deg closes the wing over a cup on the front).
 `robot.planner.plan_panel` tries every face on the front side before any on the back, and with the
 checker (`sim.grip_search`) takes the first whose program passes the check, so a panel whose front
 grip passes keeps exactly the program it had.
@@ -39,7 +39,8 @@ def grip_variants(options, *, vary_approach: bool = True, back_standoff: float |
     """The `PlanOptions` tried after `options` (a front-side grip): with `vary_approach` the front
     side's `approach_variants`, then for "back" in `sides` the back side at `back_standoff` (the TCP
     distance behind the design surface; default `options.grip_standoff`, a sheet of no thickness)
-    and its approach variants."""
+    at the given approach distance only (a back grip that fails there rarely passes at another, and
+    each refused candidate costs a plan and a check)."""
     unknown = set(sides) - set(GRIP_SIDES)
     if unknown:
         raise InputError(f"unknown grip side(s) {sorted(unknown)} (choose {', '.join(GRIP_SIDES)})",
@@ -50,7 +51,7 @@ def grip_variants(options, *, vary_approach: bool = True, back_standoff: float |
     if "back" in sides:
         back = replace(options, grip_side="back",
                        grip_standoff=options.grip_standoff if back_standoff is None else float(back_standoff))
-        out += [back, *(approach_variants(back) if vary_approach else ())]
+        out.append(back)
     return tuple(out)
 
 

@@ -69,3 +69,18 @@ def test_the_load_check_fails_the_tilt_and_names_a_bigger_pad():
     pushed = CreaseLoad(load.moment, lever=0.1, pull=False)                # a pad in compression: no vacuum check
     rep = check_fold_loads([[], [pushed]], arm, one.cup, payload_mass=0.0, pad=one)
     assert not [v for v in rep.verdicts if v.check.startswith("cup")]
+
+
+def test_the_pad_footprint_must_lie_on_the_grip_region():
+    from fabkit.frames import middle_row_frames
+    from fabkit.grip_footprint import FoldGeometry, pad_footprint
+    from fold_fixtures import folded_grid_model
+
+    model = folded_grid_model(n_states=3, angles=[math.radians(60)] * 2, triangulate=True)
+    geo = FoldGeometry.of_fold(model)
+    face = int(middle_row_frames(model).faces[-1])
+    small = pad_footprint(geo, face, 0.01, max_bend=math.radians(0.5))
+    assert small.ok and small.faces[0] == face and small.inscribed_m >= 0.01
+    # a pad wider than the sheet around the face centre is refused, naming the face
+    wide = pad_footprint(geo, face, small.inscribed_m + 0.005, max_bend=math.radians(0.5))
+    assert not wide.ok and f"does not fit on grip face {face}" in wide.problem

@@ -48,8 +48,7 @@ def test_front_first_then_back_and_the_side_is_in_the_hash(frames):
     opts = PlanOptions()
     variants = grip_variants(opts, back_standoff=0.001)
     assert [(v.grip_side, v.approach_distance) for v in variants] == [
-        ("front", pytest.approx(0.048)), ("front", pytest.approx(0.128)), ("back", 0.08),
-        ("back", pytest.approx(0.048)), ("back", pytest.approx(0.128))]
+        ("front", pytest.approx(0.048)), ("front", pytest.approx(0.128)), ("back", 0.08)]
     assert all(v.grip_standoff == 0.001 for v in variants if v.grip_side == "back")
     seen = []
 
