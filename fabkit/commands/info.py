@@ -118,7 +118,8 @@ def summarize(path: str, frame: int | None = None, units: str | None = None) -> 
         "unit": "m",
         "loaded": loaded.to_report(),
         "warnings": list(mesh.warnings),
-        "structure": panel_structure(folded, crease_edges=_assigned_creases(model, folded)).summary(folded),
+        "structure": panel_structure(folded, crease_edges=_assigned_creases(model, folded),
+                                     crease_letters=_assigned_letters(model, folded)).summary(folded),
     }
     if model is not None:
         report.update({
@@ -147,6 +148,20 @@ def _assigned_creases(model, mesh):
     ids = model.mesh_edge_index[np.isin(model.edges_assignment, ["M", "V", "U"])]
     ids = ids[ids >= 0]
     return ids if len(ids) else None
+
+
+def _assigned_letters(model, mesh):
+    """(E,) the FOLD file's assignment letter of every mesh edge ("" where it has none), or None for
+    OBJ files."""
+    import numpy as np
+
+    if model is None:
+        return None
+    letters = np.full(mesh.n_edges, "", dtype="<U1")
+    idx = np.asarray(model.mesh_edge_index)
+    ok = idx >= 0
+    letters[idx[ok]] = np.asarray(model.edges_assignment)[ok]
+    return letters
 
 
 #: a crease bent the wrong way by less than this (radians) counts as flat, not as a contradiction

@@ -145,12 +145,15 @@ def _oriented_chains(mesh: PolyMesh, crease: np.ndarray, chains) -> list[list[in
     return out
 
 
-def panel_structure(mesh: PolyMesh, *, use_tags: bool = True, crease_edges=None) -> PanelStructure:
+def panel_structure(mesh: PolyMesh, *, use_tags: bool = True, crease_edges=None,
+                    crease_letters=None) -> PanelStructure:
     """The structure of `mesh` (folded, for inference): tags where present, geometry elsewhere.
 
     `crease_edges`: ids of `mesh.edges` that are creases by an explicit statement other than strip
     tags (a FOLD file's M/V/U assignments); they win over the geometry, strip tags win over them.
-    Edges among them that separate no faces are dropped (strips must be regions)."""
+    Edges among them that separate no faces are dropped (strips must be regions).
+    `crease_letters`: (E,) letters per mesh edge (a FOLD file's own assignments); a crease that is
+    flat in `mesh` (a crease pattern without a folded frame) keeps its M or V from them."""
     t = mesh.topology
     fd = mesh.face_data if use_tags else {}
     angle = dihedral_angles(mesh)
@@ -161,6 +164,10 @@ def panel_structure(mesh: PolyMesh, *, use_tags: bool = True, crease_edges=None)
     assignment[crease & (fold > FLAT_ANGLE)] = "V"
     assignment[crease & (fold < -FLAT_ANGLE)] = "M"
     assignment[crease & (np.abs(fold) <= FLAT_ANGLE)] = "U"
+    if crease_letters is not None:  # flat: the crease pattern's own mountain / valley
+        given = np.char.upper(np.asarray(crease_letters).astype(str))
+        keep = crease & (np.abs(fold) <= FLAT_ANGLE) & np.isin(given, ["M", "V"])
+        assignment[keep] = given[keep]
     assignment[t.boundary_edge_mask] = "B"
     ef = np.maximum(t.edge_faces, 0)
     crease_row = np.where(crease, np.minimum(strip[ef[:, 0]], strip[ef[:, 1]]), -1)
