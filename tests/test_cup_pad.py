@@ -40,8 +40,19 @@ def test_a_2x2_pad_of_50_mm_cups_100_mm_apart():
 def _cell(pad_toml: str):
     import tomllib
 
-    text = (CELLS / "ur5e_bench.toml").read_text().replace("[[tool.shapes]]", pad_toml + "\n[[tool.shapes]]", 1)
-    return parse_cell(tomllib.loads(text), source="pad.toml")
+    data = tomllib.loads((CELLS / "ur5e_bench.toml").read_text())
+    data["tool"]["pad"] = tomllib.loads(pad_toml)["tool"]["pad"]
+    return parse_cell(data, source="pad.toml")
+
+
+def test_the_shipped_cells_declare_the_cup_they_model():
+    from robot.cell import load_cell
+    from robot.loads import cup_of_cell
+
+    for name in ("ur5e_bench", "ur10e_fold_table"):
+        cell = load_cell(CELLS / f"{name}.toml")
+        pad = pad_of_cell(cell)
+        assert pad.count == 1 and pad.diameter == cup_of_cell(cell).diameter   # the suction_cup shape's
 
 
 def test_cell_pad_table_and_its_mistakes():
