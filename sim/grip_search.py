@@ -33,7 +33,8 @@ def checked_acceptor(cell, fold_file: str | Path, max_checks: dict | None = None
         side = str(res.toolpath.extra.get("grip", {}).get("side", "front"))
         checked = done.setdefault(side, [])
         if len(checked) >= budget.get(side, 0):
-            return f"not checked (the first {budget.get(side, 0)} candidates that planned on the {side} side were checked)"
+            return (f"not checked (the first {budget.get(side, 0)} candidates that planned on the {side} side "
+                    "were checked)")
         checked.append(res.grip_face)
         report = check_toolpath(res.toolpath, cell, fold=fold_file)
         if report.ok:

@@ -187,8 +187,8 @@ def run(args) -> int:
     checks = tp.extra["checks"]
     report.update({"ok": True, "output": args.output, "script": args.script, **plan_report(res, tp), "problems": []})
     write_report(args, report)
-    side = "" if tp.extra["grip"].get("side", "front") == "front" else " on its back side"
-    say(args, f"{args.output}: {len(tp)} waypoints for {cell.model.name} in {cell.name}, grip face {res.grip_face}{side} "
+    where = f"grip face {res.grip_face}" + ("" if tp.extra["grip"].get("side", "front") == "front" else " (back side)")
+    say(args, f"{args.output}: {len(tp)} waypoints for {cell.model.name} in {cell.name}, {where} "
               f"({res.branch}), cycle time ~{res.cycle_time:.1f} s, largest fold step "
               f"{math.degrees(checks['max_fold_joint_step_rad']):.2f} deg, sha256 {tp.sha256[:12]}")
     if args.script:
