@@ -55,7 +55,7 @@ def summarize(path: str, frame: int | None = None, units: str | None = None) -> 
     else:
         raise InputError(f"cannot read '{suffix or 'no suffix'}': fabkit info reads .obj, .fold, .3dm and .svg",
                          source=path)
-    from fabkit.structure import assigned_creases, panel_structure
+    from fabkit.structure import assigned_creases, assigned_letters, panel_structure
 
     s = measures.summary(mesh)
     folded = mesh if model is None or frame is not None or not model.n_frames else model.frame_mesh(-1)
@@ -81,7 +81,9 @@ def summarize(path: str, frame: int | None = None, units: str | None = None) -> 
         "unit": "m",
         "loaded": loaded.to_report(),
         "warnings": list(mesh.warnings),
-        "structure": panel_structure(folded, crease_edges=None if model is None else assigned_creases(model)).summary(folded),
+        "structure": panel_structure(folded, crease_edges=None if model is None else assigned_creases(model),
+                                     crease_letters=None if model is None else assigned_letters(model, folded)
+                                     ).summary(folded),
     }
     if model is not None:
         report.update({

@@ -9,6 +9,12 @@ state (points sampled over the disc, carried into each state by their triangle's
 coordinates, distance to their best-fit plane). A single sliver face under a larger cup is refused.
 Candidates are ranked by how much room the disc has (inscribed radius minus cup radius), then by
 planarity, ties by the disc centre's coordinates (never by face or vertex order).
+
+A pad of several cups (`fabkit.sheet.pad.CupPad`) sits where the planner puts the TCP, on the grip
+face's centroid, turned by the tool's yaw: `pad_footprint` puts the disc that covers every lip
+(`CupPad.footprint_radius`, any yaw) there and applies the same rule (inside the grip region,
+planar to the lip compliance in every state). `FoldGeometry.of_fold` gives both functions what
+they need from a FOLD file's fold states.
 """
 from __future__ import annotations
 
@@ -20,7 +26,8 @@ from scipy.sparse.csgraph import connected_components
 from shapely.geometry import Polygon
 from shapely.ops import polylabel, unary_union
 
-__all__ = ["GripCandidate", "grip_regions", "grip_candidates", "DEFAULT_LIP_COMPLIANCE"]
+__all__ = ["GripCandidate", "grip_regions", "grip_candidates", "pad_footprint", "FoldGeometry",
+           "DEFAULT_LIP_COMPLIANCE"]
 
 #: How far (m) the sheet under the cup may leave a plane and still seal (a bellows lip takes ~1 mm).
 DEFAULT_LIP_COMPLIANCE = 0.5e-3
@@ -146,3 +153,83 @@ def grip_candidates(seq, cup_radius: float, *, lip_compliance: float = DEFAULT_L
     out.sort(key=lambda c: (not c.ok, -round(c.inscribed_m, 9), round(c.planarity_m, 9), round(c.centre[0], 9),
                             round(c.centre[1], 9)))
     return out
+
+
+@dataclass(frozen=True, eq=False)
+class FoldGeometry:
+    """What the footprint rule reads from a fold sequence: triangle mesh `flat_vertices` (n, 3),
+    `tris` (T, 3), `tri_face` (T,) polygon ids, `edges` (E, 2) sorted, `edge_kind` (E,) boundary /
+    crease / ruling / diagonal, `angles` (S, E) rad and `positions` (S, n, 3) per fold state (the
+    fields of a `fabkit.refold.FoldSequence`)."""
+
+    flat_vertices: np.ndarray
+    tris: np.ndarray
+    tri_face: np.ndarray
+    edges: np.ndarray
+    edge_kind: np.ndarray
+    angles: np.ndarray
+    positions: np.ndarray
+
+    @classmethod
+    def of_fold(cls, model) -> "FoldGeometry":
+        """From a `FoldModel` with fold states: its triangles (`fabkit.hold_model_fold.fold_triangles`),
+        edge kinds (`edges_fabkit:kind`, else B boundary, M/V crease, F/J diagonal, others ruling)
+        and each frame's fold angles (0 where a frame has none)."""
+        from fabkit.hold_model_fold import fold_triangles
+
+        tris, tri_face = fold_triangles(model)
+        ev = np.sort(np.asarray(model.edges_vertices, np.int64), axis=1)
+        order = np.lexsort((ev[:, 1], ev[:, 0]))
+        kind_tag = model.edges_data.get("kind")
+        if kind_tag is not None:
+            names = np.array(["boundary", "crease", "ruling", "diagonal"])[np.asarray(kind_tag, np.int64)]
+        else:
+            a = np.char.upper(np.asarray(model.edges_assignment).astype(str))
+            names = np.where(a == "B", "boundary", np.where(np.isin(a, ["M", "V"]), "crease",
+                             np.where(np.isin(a, ["F", "J"]), "diagonal", "ruling")))
+        frames = model.frames
+        E = len(ev)
+        angles = np.array([np.zeros(E) if f.edges_fold_angle is None else np.nan_to_num(np.asarray(f.edges_fold_angle))
+                           for f in frames]).reshape(len(frames), E)
+        V = np.asarray(model.vertices_coords, np.float64)
+        pos = np.array([np.asarray(f.vertices_coords, np.float64) for f in frames]).reshape(len(frames), *V.shape)
+        return cls(flat_vertices=V, tris=tris, tri_face=tri_face, edges=ev[order], edge_kind=names[order],
+                   angles=angles[:, order], positions=pos)
+
+
+def pad_footprint(seq, face: int, radius: float, *, lip_compliance: float = DEFAULT_LIP_COMPLIANCE,
+                  max_bend: float | None = None, cup_radius: float | None = None) -> GripCandidate:
+    """The pad's footprint on grip face `face` (polygon id): the disc of `radius` [m] (the pad's
+    `footprint_radius`) about the face's centroid in the flat pattern, on the grip region of that
+    face (hinges bending at most `max_bend`, default the lip compliance over `cup_radius`, itself
+    default `radius`). `ok` when the disc lies inside the region and the sheet under it is planar to
+    `lip_compliance` in every state; `problem` says why not."""
+    if not radius > 0:
+        raise ValueError("the pad radius must be positive")
+    bend = lip_compliance / (radius if cup_radius is None else cup_radius) if max_bend is None else float(max_bend)
+    V = np.asarray(seq.flat_vertices)[:, :2]
+    tri_face = np.asarray(seq.tri_face)
+    own = np.flatnonzero(tri_face == int(face))
+    if len(own) == 0:
+        raise ValueError(f"face {face} is not a face of the panel")
+    verts = np.unique(np.asarray(seq.tris)[own])
+    centre = V[verts].mean(axis=0)          # the face frame's origin: the mean of its distinct vertices
+    tris = next(t for t in grip_regions(seq, bend) if np.isin(own, t).any())
+    region = unary_union([Polygon(V[t]) for t in np.asarray(seq.tris)[tris]]).buffer(0)
+    from shapely.geometry import Point
+
+    polys = tuple(dict.fromkeys([int(face)] + np.unique(tri_face[tris]).tolist()))
+    inside = region.contains(Point(centre).buffer(radius, quad_segs=32))
+    room = float(region.boundary.distance(Point(centre))) if region.contains(Point(centre)) else 0.0
+    planarity = _planarity(seq, tris, _disc_samples(centre, radius if inside else max(room, 1e-9)))
+    problem = ""
+    if not inside:
+        problem = (f"the pad ({2000 * radius:.0f} mm across its lips) does not fit on grip face {face}: the sheet "
+                   f"around the face centre is {2000 * room:.1f} mm across (faces {list(polys[:4])}"
+                   f"{'...' if len(polys) > 4 else ''})")
+    elif planarity > lip_compliance:
+        problem = (f"the sheet under the pad leaves its plane by {planarity * 1000:.2f} mm (lips take "
+                   f"{lip_compliance * 1000:.2f} mm)")
+    return GripCandidate(faces=polys, centre=(float(centre[0]), float(centre[1])), inscribed_m=room,
+                         planarity_m=planarity, ok=not problem, problem=problem)
+

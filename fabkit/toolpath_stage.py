@@ -129,6 +129,16 @@ def _planner_options(settings: PlanSettings, spec):
     return options
 
 
+def _back_standoff(settings: PlanSettings, spec) -> float:
+    """The TCP standoff of a cup on the sheet's back face: behind the design surface by
+    `fabkit.sheet.back_face_offset` (0 for a rigid panel of no thickness)."""
+    from fabkit.sheet import back_face_offset
+    from robot.toolpath import PlanOptions
+
+    standoff = PlanOptions().grip_standoff if settings.standoff is None else settings.standoff
+    return standoff + (0.0 if spec.rigid else back_face_offset(spec, settings.design_surface))
+
+
 def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
                    settings: PlanSettings = PlanSettings(), *, units: str | None = None, workdir=None):
     """Plan the FOLD file `fold_file` in the cell file `cell_file` (module docstring) ->
@@ -139,7 +149,7 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
     from fabkit.io.load import load_fold_model
     from fabkit.results import Program
     from robot.cell import load_cell
-    from robot.grip_choice import approach_variants
+    from robot.grip_choice import grip_variants
     from robot.plan_cell import plan_in_cell
     from robot.sheet_program import compensated_states, sheet_records
     from robot.toolpath import PlanningError
@@ -169,7 +179,8 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
                            source=fold_source(fold_file, frames.n_states),
                            # grip faces tried through the check (a sheet program is checked as compensated, later)
                            accept=None if compensated is not None else checked_acceptor(cell, str(fold_file)),
-                           variants=approach_variants(options) if settings.approach is None else (),
+                           variants=grip_variants(options, vary_approach=settings.approach is None,
+                                                  back_standoff=_back_standoff(settings, spec)),
                            sheet=compensated is not None, fold_file=fold_file)
     except PlanningError as exc:
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),),

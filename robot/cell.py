@@ -94,6 +94,7 @@ class Tool:
     grip_output: int
     grip_output_kind: str
     cup_radius: float | None = None  # radius [m] of the suction cup's footprint on the panel (optional)
+    pad: object | None = None        # `fabkit.sheet.pad.CupPad` of `[tool.pad]` (optional): the cups that hold
 
 
 @dataclass(frozen=True, eq=False)
@@ -336,6 +337,7 @@ def parse_cell(data: dict, source: str) -> Cell:
     shapes = tuple(_shape(s, f"tool_{i}", False) for i, s in enumerate(tr.tables("shapes")))
     cup = tr.number("cup_radius", required=False, default=None, lo=0.0, lo_open=True, hi=0.5, unit="m") \
         if tr.has("cup_radius") else None
+    pad = _pad(tr.table_("pad")) if tr.has("pad") else None
     tr.done()
 
     fr = top.table_("fixture")
@@ -370,7 +372,8 @@ def parse_cell(data: dict, source: str) -> Cell:
     lr.done()
     top.done()
     return Cell(name=name, description=description, robot=robot,
-                tool=Tool(tcp=tcp, shapes=shapes, grip_output=grip, grip_output_kind=kind, cup_radius=cup),
+                tool=Tool(tcp=tcp, shapes=shapes, grip_output=grip, grip_output_kind=kind, cup_radius=cup,
+                          pad=pad),
                 fixture=fixture, obstacles=obstacles, limits=limits, source=source, clamp=clamp,
                 extra_arms=extra, sha256=_data_sha256(data))
 
@@ -400,3 +403,26 @@ def load_cell(path: str | Path) -> Cell:
 def file_sha256(path: str | Path) -> str:
     """sha256 of a file's bytes (cell and FOLD files are identified by it)."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _pad(r: _Reader):
+    """`[tool.pad]`: `cup_diameter` [m], `cups` (cup centres [[x, y], ...] in the TCP frame's xy
+    plane, m), optional `vacuum` [Pa below ambient, default 60000] and `safety` [default 2.5]."""
+    from fabkit.sheet.pad import CupPad
+
+    d = r.number("cup_diameter", lo=0.0, lo_open=True, hi=0.5, unit="m")
+    raw = r.raw("cups")
+    if not isinstance(raw, list) or not raw or not all(isinstance(p, list) and len(p) == 2 for p in raw):
+        r.fail("cups", "expected a list of at least one [x, y] cup centre (m)")
+    c = np.array([[_number(x, f"{r.key('cups')}[{i}]", r.source, unit="m") for x in p] for i, p in enumerate(raw)])
+    if np.abs(c).max() > 0.5:
+        r.fail("cups", "a cup centre is more than 0.5 m from the TCP (millimetres?)")
+    if len(c) > 1:
+        gap = np.linalg.norm(c[:, None] - c[None], axis=2)[np.triu_indices(len(c), 1)].min()
+        if gap < d:
+            r.fail("cups", f"two cups {gap * 1000:.1f} mm apart overlap ({d * 1000:.1f} mm lips)")
+    vac = r.number("vacuum", required=False, default=60e3, lo=0.0, lo_open=True, hi=101325.0, unit="Pa")
+    safety = r.number("safety", required=False, default=2.5, lo=1.0, hi=10.0)
+    r.done()
+    return CupPad(c, d, vac, safety)
+

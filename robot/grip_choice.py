@@ -1,9 +1,17 @@
-"""Which grip faces and approach distances the planner tries, in which order.
+"""Which grip faces, sides and approach distances the planner tries, in which order.
 
 `grip_order`: the middle-row faces that move, largest motion first (the far end of the row, refold
 clamping the first strip); `approach_variants`: other approach/retract distances for a face that
-does not plan or pass at the given one. `robot.planner.plan_panel` tries them in this order, and
-with the checker (`sim.grip_search`) takes the first whose program passes the check.
+does not plan or pass at the given one; `grip_variants`: those on the front side, then the back
+side (the cup's approach axis along +normal instead of -normal, its standoff measured behind the
+design surface: a valley folded to 175 deg closes the wing over a cup on the front).
+`robot.planner.plan_panel` tries every face on the front side before any on the back, and with the
+checker (`sim.grip_search`) takes the first whose program passes the check, so a panel whose front
+grip passes keeps exactly the program it had.
+
+Sides: the front of a face is the side its normal points to (faces counter-clockwise seen from the
+front; +z of the flat pattern); a sheet's design surface is its top face unless `--design-surface`
+says otherwise (`fabkit.sheet.front_face_offset` / `back_face_offset`).
 """
 from __future__ import annotations
 
@@ -13,7 +21,10 @@ import numpy as np
 
 from fabkit.errors import InputError
 
-__all__ = ["grip_order", "approach_variants"]
+__all__ = ["grip_order", "approach_variants", "grip_variants", "GRIP_SIDES"]
+
+#: The sides a cup can grip, in the order they are tried.
+GRIP_SIDES = ("front", "back")
 
 
 def approach_variants(options):
@@ -21,6 +32,27 @@ def approach_variants(options):
     (a retract line through a near-singularity, the tool retracting into the folded panel)."""
     d = options.approach_distance
     return tuple(replace(options, approach_distance=x) for x in (0.6 * d, 1.6 * d))
+
+
+def grip_variants(options, *, vary_approach: bool = True, back_standoff: float | None = None,
+                  sides=GRIP_SIDES):
+    """The `PlanOptions` tried after `options` (a front-side grip): with `vary_approach` the front
+    side's `approach_variants`, then for "back" in `sides` the back side at `back_standoff` (the TCP
+    distance behind the design surface; default `options.grip_standoff`, a sheet of no thickness)
+    at the given approach distance only (a back grip that fails there rarely passes at another, and
+    each refused candidate costs a plan and a check)."""
+    unknown = set(sides) - set(GRIP_SIDES)
+    if unknown:
+        raise InputError(f"unknown grip side(s) {sorted(unknown)} (choose {', '.join(GRIP_SIDES)})",
+                         source="--grip-side")
+    out = []
+    if "front" in sides and vary_approach:
+        out += approach_variants(options)
+    if "back" in sides:
+        back = replace(options, grip_side="back",
+                       grip_standoff=options.grip_standoff if back_standoff is None else float(back_standoff))
+        out.append(back)
+    return tuple(out)
 
 
 def grip_order(frames, grip_face: int | None = None) -> list[int]:

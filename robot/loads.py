@@ -9,12 +9,18 @@ position-controlled arm's split between them depends on the pose:
   (compared with the wrist rating: UR5e 28 N m, UR10e 54 N m);
 - force: F = M / d at the grip, plus the payload's weight, against the rated payload's weight
   (UR5e 5 kg, UR10e 10 kg), and, when the cup has to pull (the face folds away from the cup),
-  against the cup's usable holding force; pushing is contact in compression and needs no vacuum.
+  against the pad's usable holding force; pushing is contact in compression and needs no vacuum.
+
+When the cup pulls, the pad's lips also carry the fold as a tilt: the sheet turns about the crease
+relative to the rigid pad, and M must stay within the pad's moment of resistance about the crease
+(`fabkit.sheet.pad.CupPad.moment_capacity` at lever d, worst pad orientation: the cups' holding
+forces times their lever arms, the lip farthest from the crease lifting first).
+The pad is the cell's `[tool.pad]`, else one cup of the `suction_cup` shape's diameter.
 
 A failed check names the crease, the state and the remedy (groove the crease to a ligament that
-fits, a bigger arm, push instead of pull, two arms). Not modelled: the arm's own link weights and
-the dynamic loads of acceleration (the ratings include them at the catalogue's conditions), the
-couple the cup lip can carry (taken as none on the force path), friction in the fixture.
+fits, a bigger arm, push instead of pull, a bigger pad, two arms). Not modelled: the arm's own
+link weights and the dynamic loads of acceleration (the ratings include them at the catalogue's
+conditions), friction in the fixture.
 `joint_torques` gives the static joint torques of a wrench at a pose (J^T w) for a closer look.
 """
 from __future__ import annotations
@@ -25,10 +31,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fabkit.sheet.loads import GRAVITY, PLANE_STRAIN, FoldMoment, VacuumCup
+from fabkit.sheet.pad import CupPad, single_cup_pad
 from robot.kinematics import fk_frames
 
 __all__ = ["ArmRating", "ARM_RATINGS", "arm_rating", "CreaseLoad", "LoadVerdict", "LoadReport", "check_fold_loads",
-           "joint_torques", "cup_of_cell", "ligament_for_moment", "payload_record", "toolpath_loads"]
+           "joint_torques", "cup_of_cell", "pad_of_cell", "ligament_for_moment", "payload_record", "toolpath_loads"]
 
 
 @dataclass(frozen=True)
@@ -67,6 +74,12 @@ def cup_of_cell(cell, vacuum: float = 60e3, safety: float = 2.5) -> VacuumCup:
     if shape is None:
         raise ValueError(f"cell {cell.name} has no cylinder tool shape to take the cup diameter from")
     return VacuumCup(diameter=2 * shape.size[0], vacuum=vacuum, safety=safety)
+
+
+def pad_of_cell(cell) -> CupPad:
+    """The cell's vacuum pad: `[tool.pad]` when declared, else one cup (`cup_of_cell`)."""
+    pad = getattr(cell.tool, "pad", None)
+    return pad if pad is not None else single_cup_pad(cup_of_cell(cell))
 
 
 def ligament_for_moment(material, length: float, moment: float) -> float:
@@ -112,6 +125,7 @@ class LoadReport:
     cup: VacuumCup
     payload_mass: float
     verdicts: tuple[LoadVerdict, ...] = field(default_factory=tuple)
+    pad: CupPad | None = None
 
     @property
     def ok(self) -> bool:
@@ -140,6 +154,7 @@ class LoadReport:
     def summary(self) -> dict:
         return {"ok": self.ok, "arm": self.arm.model, "rated_payload_kg": self.arm.payload,
                 "wrist_torque_nm": self.arm.wrist_torque, "cup": self.cup.summary(),
+                "pad": (self.pad or single_cup_pad(self.cup)).summary(),
                 "payload_kg": self.payload_mass,
                 "verdicts": [{"state": v.state, "crease": v.crease, "check": v.check, "demand": v.demand,
                               "capacity": v.capacity, "unit": v.unit, "ok": v.ok, "remedy": v.remedy}
@@ -153,7 +168,8 @@ def _floor(x: float, step: float) -> float:
 
 def _remedy(material, cl: CreaseLoad, allowed: float, arm: ArmRating, bigger_by: str, extra: str = "") -> str:
     """Remedy text: the preparation that brings the crease's moment to `allowed` [N m] (the smallest
-    moment every arm check of this crease accepts), a bigger arm, `extra`, two arms."""
+    moment every arm check of this crease accepts), a bigger arm (`bigger_by` wrist or payload),
+    `extra`, two arms."""
     m = cl.moment
     parts = []
     if material is not None and not material.rigid and m.high > 0 and allowed > 0:
@@ -164,7 +180,7 @@ def _remedy(material, cl: CreaseLoad, allowed: float, arm: ArmRating, bigger_by:
             frac = _floor(allowed / m.high * 100, 1)
             parts.append(f"perforate the crease to at most {frac:.0f} % uncut ({material.name} must not be grooved)")
     key = (lambda r: r.wrist_torque) if bigger_by == "wrist" else (lambda r: r.payload)
-    bigger = [r for r in ARM_RATINGS.values() if key(r) > key(arm)]
+    bigger = [r for r in ARM_RATINGS.values() if key(r) > key(arm)] if bigger_by in ("wrist", "payload") else []
     if bigger:
         parts.append(f"a bigger arm ({bigger[0].model})")
     if extra:
@@ -174,10 +190,12 @@ def _remedy(material, cl: CreaseLoad, allowed: float, arm: ArmRating, bigger_by:
 
 
 def check_fold_loads(states, arm: ArmRating, cup: VacuumCup, *, payload_mass: float,
-                     material=None) -> LoadReport:
+                     material=None, pad: CupPad | None = None) -> LoadReport:
     """Check every `CreaseLoad` of every state (`states`: a sequence of sequences, index = state).
 
-    payload_mass [kg]: tool + panel. material: names the remedy (ligament or perforation)."""
+    payload_mass [kg]: tool + panel. material: names the remedy (ligament or perforation). pad: the
+    cups that hold (default: `cup` alone)."""
+    pad = single_cup_pad(cup) if pad is None else pad
     verdicts: list[LoadVerdict] = []
     weight = payload_mass * GRAVITY
     rated = arm.payload * GRAVITY
@@ -198,12 +216,19 @@ def check_fold_loads(states, arm: ArmRating, cup: VacuumCup, *, payload_mass: fl
                         f"grip at least {math.ceil(d_need * 1000)} mm from the crease" if math.isfinite(d_need) else "")))
             if cl.pull:
                 need = force + weight
-                d_cup = math.sqrt(4 * need * cup.safety / (math.pi * cup.vacuum))
+                d_cup = math.sqrt(4 * need * pad.safety / (math.pi * pad.vacuum * pad.count))
+                many = f"{pad.count} cups of at least" if pad.count > 1 else "a cup of at least"
                 verdicts.append(LoadVerdict(
-                    s, m.crease, "cup pull", need, cup.usable_force, "N", need <= cup.usable_force,
-                    f"push instead of pull (a pad in compression needs no vacuum), or a cup of at least "
-                    f"{math.ceil(d_cup * 1000)} mm at {cup.vacuum / 1000:g} kPa"))
-    return LoadReport(arm=arm, cup=cup, payload_mass=float(payload_mass), verdicts=tuple(verdicts))
+                    s, m.crease, "cup pull", need, pad.usable_force, "N", need <= pad.usable_force,
+                    f"push instead of pull (a pad in compression needs no vacuum), or {many} "
+                    f"{math.ceil(d_cup * 1000)} mm at {pad.vacuum / 1000:g} kPa"))
+                tilt = pad.moment_capacity(lever)
+                verdicts.append(LoadVerdict(
+                    s, m.crease, "cup tilt", m.high, tilt, "N m", m.high <= tilt,
+                    _remedy(material, cl, min(allowed, tilt), arm, "pad",
+                            f"push instead of pull; a bigger pad (more or larger cups, spread across the crease: "
+                            f"this one resists {tilt:.1f} N m at {lever * 1000:.0f} mm)")))
+    return LoadReport(arm=arm, cup=cup, payload_mass=float(payload_mass), verdicts=tuple(verdicts), pad=pad)
 
 
 def joint_torques(model, q, point, force, couple=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -245,16 +270,18 @@ def payload_record(cell, waypoints, panel_mass: float, panel_cog, tool_mass: flo
             "note": "held = tool + the whole panel (the clamp carries part of it); tool CoG half-way to the TCP"}
 
 
-def toolpath_loads(spec, model, creases, grip_face: int, cell, payload_mass: float) -> LoadReport:
+def toolpath_loads(spec, model, creases, grip_face: int, cell, payload_mass: float,
+                   side: str = "front") -> LoadReport:
     """The load check of a fold program: every crease the arm folds (`fabkit.sheet.creases.arm_folds`,
-    from the design FOLD `model`) in every state, on the cell's arm and cup."""
+    from the design FOLD `model`) in every state, on the cell's arm and cup gripping `side`."""
     from fabkit.sheet.creases import arm_folds
     from fabkit.sheet.loads import fold_moment
 
     fixed = model.file_data.get("fabkit:fixed_face")
-    folds = arm_folds(model, creases, grip_face, None if fixed is None else int(fixed))
+    folds = arm_folds(model, creases, grip_face, None if fixed is None else int(fixed), side=side)
     states: list[list[CreaseLoad]] = [[] for _ in range(model.n_frames)]
     for f in folds:
         states[f.state].append(CreaseLoad(fold_moment(spec, f.crease.length, f.crease.name), f.lever, f.pull))
-    return check_fold_loads(states, arm_rating(cell.model.name), cup_of_cell(cell), payload_mass=payload_mass,
-                            material=spec.material)
+    pad = pad_of_cell(cell)
+    return check_fold_loads(states, arm_rating(cell.model.name), pad.cup, payload_mass=payload_mass,
+                            material=spec.material, pad=pad)

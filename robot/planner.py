@@ -66,7 +66,10 @@ class PlanOptions:
     consecutive waypoints of a linear move (subdivide otherwise); check_substeps: intermediate poses
     checked on every linear segment; singular_*: refuse waypoints closer than this to a singularity
     (|sin q3|, |sin q5|, shoulder term in m); params: speeds and blends; fold_pieces: at least this
-    many straight pieces for the move into a fold state (arms that fold together move in as many).
+    many straight pieces for the move into a fold state (arms that fold together move in as many);
+    grip_side: which side of the sheet the cup grips, "front" (the side the face normals point to;
+    the tool approaches along -normal) or "back" (the tool approaches along +normal;
+    `grip_standoff` is then measured behind the design surface).
     """
 
     approach_distance: float = 0.08
@@ -80,6 +83,11 @@ class PlanOptions:
     singular_shoulder: float = K.SINGULARITY_LIMITS.shoulder_m
     params: MotionParams = MotionParams()
     fold_pieces: tuple = ()  # ((state, n), ...): the move into fold state `state` in at least n pieces
+    grip_side: str = "front"
+
+
+#: Face frame -> the same frame seen from the back side (x kept, y and z reversed).
+BACK_SIDE = np.diag([1.0, -1.0, -1.0, 1.0])
 
 
 def grip_offset(standoff: float = 0.0, tool_yaw: float = 0.0) -> np.ndarray:
@@ -95,6 +103,10 @@ def tcp_targets(cell: Cell, face_frames: np.ndarray, options: PlanOptions = Plan
     """TCP poses in the robot base frame for one grip face's frames `(S, 4, 4)` (panel frame):
     `grip` (S, 4, 4) per fold state, `approach` and `retract` (4, 4)."""
     F = np.asarray(face_frames, dtype=np.float64)
+    if options.grip_side not in ("front", "back"):
+        raise InputError(f"grip side must be front or back, got {options.grip_side!r}", source="grip_side")
+    if options.grip_side == "back":  # the cup on the back: grip the frame turned over
+        F = F @ BACK_SIDE
     M = cell.panel_to_base
     yaw = options.tool_yaw or 0.0
     G = grip_offset(options.grip_standoff, yaw)
@@ -346,7 +358,8 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
         "units": {"length": "m", "angle": "rad", "time": "s", "pose": "TCP in the robot base frame, rotation vector",
                   "movel": "v m/s, a m/s^2", "movej": "v rad/s, a rad/s^2", "r": "m"},
         "grip": {"output": cell.tool.grip_output, "kind": cell.tool.grip_output_kind,
-                 "grip_dwell_s": p.grip_dwell, "release_dwell_s": p.release_dwell, "face": int(grip_face)},
+                 "grip_dwell_s": p.grip_dwell, "release_dwell_s": p.release_dwell, "face": int(grip_face),
+                 "side": opt.grip_side},
         "cycle_time_s": ct.total,
         "holds": holds_record(ops, grip_face, clamped_faces),
         **({"placement": placement} if placement is not None else {}),
@@ -370,25 +383,27 @@ def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: Pla
     or with `accept(PlanResult) -> problem or None` (the checker: `sim.grip_search`) the first that
     plans and that `accept` passes; when `accept` refuses every face that plans, the first of them
     is returned (its check will say why). `variants`: further `PlanOptions` tried for each face
-    after `options` (e.g. `approach_variants`), in order. Raises `InputError` for a grip face not
+    after `options` (e.g. `robot.grip_choice.grip_variants`), in order; variants gripping another side
+    (`grip_side`) are tried after every face on the first side. Raises `InputError` for a grip face not
     in the middle row, `PlanningError` when no face plans (the error of the face that got farthest).
     """
     order = grip_order(frames, grip_face)
     tried, refused = [], None
-    for face in order:
-        for opt in (options, *(variants or ())):
-            try:
-                res = plan_toolpath(cell, frames.of_face(face), options=opt,
-                                    source={**(source or {}), "grip_face": face}, grip_face=face,
-                                    clamped_faces=clamped_faces, placement=placement)
-            except PlanningError as exc:
-                tried.append((face, exc))
-                continue
-            problem = accept(res) if accept is not None and grip_face is None else None
-            if problem is None:
-                return replace(res, tried=tuple(tried))
-            tried.append((face, problem))
-            refused = refused or res
+    every = (options, *(variants or ()))
+    sides = [[o for o in every if o.grip_side == side] for side in dict.fromkeys(o.grip_side for o in every)]
+    for face, opt in ((f, o) for group in sides for f in order for o in group):  # every face's front first
+        try:
+            res = plan_toolpath(cell, frames.of_face(face), options=opt,
+                                source={**(source or {}), "grip_face": face}, grip_face=face,
+                                clamped_faces=clamped_faces, placement=placement)
+        except PlanningError as exc:
+            tried.append((face, exc))
+            continue
+        problem = accept(res) if accept is not None and grip_face is None else None
+        if problem is None:
+            return replace(res, tried=tuple(tried))
+        tried.append((face, problem))
+        refused = refused or res
     if refused is not None:
         return replace(refused, tried=tuple(tried))
     tried = [(f, e) for f, e in tried if isinstance(e, PlanningError)]

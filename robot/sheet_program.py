@@ -17,7 +17,8 @@ from robot.loads import LoadReport, payload_record, toolpath_loads
 from robot.motion import toolpath_cycle_time
 from robot.ur_motion import PayloadError
 
-__all__ = ["DEFAULT_TOOL_MASS", "compensated_states", "sheet_records", "sheet_of_toolpath", "toolpath_load_check"]
+__all__ = ["DEFAULT_TOOL_MASS", "compensated_states", "sheet_records", "sheet_of_toolpath", "toolpath_load_check",
+           "grip_side_of"]
 
 #: Gripper mass [kg] assumed when none is given (an estimate; the command says so).
 DEFAULT_TOOL_MASS = 1.0
@@ -47,7 +48,8 @@ def sheet_records(tp, spec, design_model, compensated, cell, grip_face: int,
     flat = design_model.mesh()
     pm = panel_mass(spec, flat.vertices, flat.triangulate()[0])
     payload = payload_record(cell, tp.waypoints, pm.mass, pm.cog, mass)
-    loads = toolpath_loads(spec, design_model, compensated.creases, grip_face, cell, mass + pm.mass)
+    loads = toolpath_loads(spec, design_model, compensated.creases, grip_face, cell, mass + pm.mass,
+                           side=grip_side_of(tp))
     sheet = {**compensated.summary(), "material_toml": material_toml(spec.material), "tool_mass_kg": mass,
              "tool_mass_assumed": tool_mass is None, "design_surface": design_surface,
              "front_face_offset_mm": front_face_offset(spec, design_surface) * 1000, "loads": loads.summary()}
@@ -98,4 +100,11 @@ def toolpath_load_check(tp, spec, design_model, cell, grip_face: int) -> LoadRep
     else:
         flat = design_model.mesh()
         held = DEFAULT_TOOL_MASS + panel_mass(spec, flat.vertices, flat.triangulate()[0]).mass
-    return toolpath_loads(spec, design_model, panel_creases(design_model), grip_face, cell, held)
+    return toolpath_loads(spec, design_model, panel_creases(design_model), grip_face, cell, held,
+                          side=grip_side_of(tp))
+
+
+def grip_side_of(tp) -> str:
+    """The side of the sheet the toolpath's cup grips (PATH.json `grip.side`; front when absent)."""
+    grip = tp.extra.get("grip") if isinstance(tp.extra, dict) else None
+    return str(grip.get("side", "front")) if isinstance(grip, dict) else "front"

@@ -12,7 +12,10 @@ payload; the report says so). A given sheet that differs from the record is refu
 was made for the recorded one.
 
 Exceeded loads are problems of kind `load`, one per crease and check, on the waypoints of the fold
-moves of the states concerned, naming the crease and the remedy.
+moves of the states concerned, naming the crease and the remedy. The cell's vacuum pad must also
+sit on the grip face (`fabkit.grip_footprint.pad_footprint`): a pad that does not fit, or sheet
+under it that is not planar enough for its lips, is a `load` problem at the grip waypoint (subject
+"pad footprint").
 """
 from __future__ import annotations
 
@@ -141,10 +144,29 @@ def check_sheet_loads(tp, spec, design_model, cell, *, recorded: bool) -> SheetC
             detail=(f"{crease}, fold states {','.join(map(str, ss))}: {check} {worst.demand:.1f} {worst.unit} of "
                     f"{worst.capacity:.1f} {worst.unit} ({worst.demand / worst.capacity:.0%}); remedy: "
                     f"{worst.remedy}")))
+    footprint = _pad_footprint(tp, design_model, cell, grip)
+    if not footprint["ok"]:
+        at = next((k for k, w in enumerate(tp.waypoints) if w.op == "grip"), 0)
+        problems.append(Problem(waypoint=at, kind="load", last_waypoint=at, subject="pad footprint",
+                                value=footprint["radius_mm"] / max(footprint["room_mm"], 1e-9),
+                                detail=f"{footprint['problem']}; remedy: a smaller pad, or grip a wider face"))
     notes = []
     if not recorded:
         notes.append(f"fold loads checked for {_describe(spec)}, but the program was planned rigid: it is not "
                      "springback-compensated and declares no payload (plan with fabkit toolpath --material)")
-    record = {**rep.summary(), "sheet": spec.summary(), "recorded": recorded, "states": rows}
+    record = {**rep.summary(), "sheet": spec.summary(), "recorded": recorded, "states": rows,
+              "pad_footprint": footprint}
     record.pop("problems", None)
     return SheetCheck(record=record, problems=tuple(problems), notes=tuple(notes))
+
+
+def _pad_footprint(tp, design_model, cell, grip: int) -> dict:
+    """The cell's pad on the grip face (`fabkit.grip_footprint.pad_footprint`), JSON-ready."""
+    from fabkit.grip_footprint import FoldGeometry, pad_footprint
+    from robot.loads import pad_of_cell
+
+    pad = pad_of_cell(cell)
+    fp = pad_footprint(FoldGeometry.of_fold(design_model), grip, pad.footprint_radius, cup_radius=pad.diameter / 2)
+    return {"ok": fp.ok, "face": int(grip), "radius_mm": pad.footprint_radius * 1000, "room_mm": fp.inscribed_m * 1000,
+            "planarity_mm": fp.planarity_m * 1000, "faces": list(fp.faces), "problem": fp.problem}
+

@@ -4,9 +4,10 @@ The planner (`robot.planner.plan_panel`) tries the middle-row faces from the lar
 and takes the first that plans; a face that plans can still fail the check (the arm or the tool
 hits the panel, a wing left free). `checked_acceptor` gives the planner the full check of each
 candidate (`sim.check.check_toolpath`, exactly what `fabkit check` runs, panel from the FOLD
-file), so the first face whose program passes is chosen. At most `max_checks` candidates are
-checked (each check takes seconds); when none passes, the planner returns the first that planned
-and the check stage names its problems.
+file), so the first face whose program passes is chosen. At most `MAX_CHECKS` candidates are
+checked per grip side (each check takes a fraction of a second to seconds; the planner tries
+every face on the front side before the back side, `robot.grip_choice`); when none passes, the
+planner returns the first that planned and the check stage names its problems.
 """
 from __future__ import annotations
 
@@ -14,27 +15,32 @@ from pathlib import Path
 
 __all__ = ["checked_acceptor", "MAX_CHECKS"]
 
-#: Candidates checked at most per plan.
-MAX_CHECKS = 4
+#: Candidates checked at most per plan and grip side.
+MAX_CHECKS = {"front": 4, "back": 2}
 
 
-def checked_acceptor(cell, fold_file: str | Path, max_checks: int = MAX_CHECKS):
+def checked_acceptor(cell, fold_file: str | Path, max_checks: dict | None = None):
     """`accept(PlanResult) -> problem or None` for `plan_panel`: None when the candidate's toolpath
     passes the check in `cell` with the panel of `fold_file`, else its first problem (and after
-    `max_checks` checks every further candidate is refused unchecked)."""
+    `max_checks[side]` checks on a grip side, default `MAX_CHECKS`, every further candidate on that
+    side is refused unchecked)."""
     from sim.check import check_toolpath
 
-    done = []
+    budget = {**MAX_CHECKS, **(max_checks or {})}
+    done: dict[str, list[int]] = {}
 
     def accept(res) -> str | None:
-        if len(done) >= max_checks:
-            return f"not checked (the first {max_checks} candidates that planned were checked)"
-        done.append(res.grip_face)
+        side = str(res.toolpath.extra.get("grip", {}).get("side", "front"))
+        checked = done.setdefault(side, [])
+        if len(checked) >= budget.get(side, 0):
+            return (f"not checked (the first {budget.get(side, 0)} candidates that planned on the {side} side "
+                    "were checked)")
+        checked.append(res.grip_face)
         report = check_toolpath(res.toolpath, cell, fold=fold_file)
         if report.ok:
             return None
         p = report.problems[0]
         more = f" (+{len(report.problems) - 1} more)" if len(report.problems) > 1 else ""
-        return f"check: waypoint {p.waypoint}: {p.kind}: {p.detail}{more}"
+        return f"{side} side: check: waypoint {p.waypoint}: {p.kind}: {p.detail}{more}"
 
     return accept

@@ -141,3 +141,90 @@ def test_refold_from_another_tools_crease_pattern_with_a_folded_frame(tmp_path, 
                                np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1), rtol=0, atol=1e-9 * size)
     # the crease pattern's valley crease is kept as V
     assert np.sum(seq.edges_assignment == "V") >= np.sum(a.edges_assignment == "V")
+
+
+# ---- the same plain panel as FOLD (another tool's conventions) and as .3dm, through every stage ----
+
+def _variant_panel():
+    """A two-crease reflect panel without tags (60 deg), its M/V per edge (the designer's letters)."""
+    from structure_panels import plain, reflect_tagged, true_creases
+
+    tagged = reflect_tagged(2, 60.0)
+    mesh = plain(tagged)
+    truth = true_creases(tagged)
+    strip = np.asarray(tagged.face_data["strip"])
+    ef = tagged.edge_faces[truth]
+    row = np.minimum(strip[ef[:, 0]], strip[ef[:, 1]])
+    letters = {(int(a), int(b)): ("V" if r == 0 else "M") for (a, b), r in zip(tagged.edges[truth].tolist(),
+                                                                           row.tolist())}
+    return np.asarray(mesh.vertices), mesh.faces_list(), letters
+
+
+def _through_every_stage(d, src, cell):
+    """relax -> unfold -> refold -> toolpath -> check with no flags; (clamped faces, grip face, side,
+    joints (W, 6), check ok)."""
+    steps = [["relax", str(src), "-o", str(d / "rel.obj")], ["unfold", str(d / "rel.obj"), "-o", str(d / "flat.obj")],
+             ["refold", str(d / "flat.obj"), str(d / "rel.obj"), "-o", str(d / "seq.fold"), "--frames", "5"],
+             ["toolpath", str(d / "seq.fold"), "--cell", cell, "-o", str(d / "path.json")],
+             ["check", str(d / "path.json"), "--cell", cell, "-o", str(d / "check.json")]]
+    for cmd in steps:
+        assert main([*cmd, "-q"]) == 0, cmd[0]
+    path = json.loads((d / "path.json").read_text())
+    return (path["holds"]["clamped_faces"], path["grip"]["face"], path["grip"]["side"],
+            np.array([w["q"] for w in path["waypoints"]]), json.loads((d / "check.json").read_text())["ok"])
+
+
+CELL = str(__import__("pathlib").Path(__file__).resolve().parent.parent / "cells" / "ur5e_bench.toml")
+
+
+@pytest.fixture(scope="module")
+def obj_program(tmp_path_factory):
+    V, F, _ = _variant_panel()
+    d = tmp_path_factory.mktemp("obj-program")
+    return _through_every_stage(d, plain_obj(d / "panel.obj", V, F), CELL)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fmt", ["fold", "3dm"])
+def test_fold_and_3dm_panels_program_as_the_obj(tmp_path, obj_program, fmt):
+    """The FOLD (shuffled, lower-case M/V/B/F letters, faces_vertices only, no fabkit keys) and the
+    .3dm (rhino3dm, metres) of the same panel give the OBJ's clamp, grip face and program (up to
+    the shuffle of the FOLD's faces)."""
+    V, F, letters = _variant_panel()
+    if fmt == "fold":
+        S, G, perm = shuffled(V, F)
+        new_id = np.argsort(perm)
+        mine = {tuple(sorted((int(new_id[a]), int(new_id[b])))): c for (a, b), c in letters.items()}
+        src = fold_other_tool(tmp_path / "panel.fold", S, G, mine, unit="m", lower=True)
+        text = src.read_text()
+        assert "fabkit" not in text and '"m"' in text and '"v"' in text
+        face_of = {tuple(sorted(g)): k for k, g in enumerate(G)}
+        old_of_new = {face_of[tuple(sorted(int(new_id[v]) for v in f))]: k for k, f in enumerate(F)}
+    else:
+        src = rhino_3dm(tmp_path / "panel.3dm", V, F, unit="Meters")
+        old_of_new = {k: k for k in range(len(F))}
+    clamped, grip, side, q, ok = _through_every_stage(tmp_path, src, CELL)
+    clamped0, grip0, side0, q0, ok0 = obj_program
+    assert ok and ok0 and side == side0 == "front"
+    assert [old_of_new[f] for f in clamped] == clamped0 and old_of_new[grip] == grip0
+    assert q.shape == q0.shape
+    np.testing.assert_allclose(q, q0, rtol=0, atol=1e-9)
+
+
+def test_a_crease_patterns_own_mountains_and_valleys_reach_info(tmp_path):
+    """A flat FOLD crease pattern with no folded frame: `fabkit info` names its creases with the
+    file's own M and V (the geometry is flat: it cannot tell), and swapped letters are reported
+    swapped."""
+    from fabkit.mesh import PolyMesh
+    from fabkit.unfold import develop
+
+    V, F, letters = _variant_panel()
+    flat = np.column_stack([develop(PolyMesh(V, F)).uv, np.zeros(len(V))])
+    swap = {"M": "V", "V": "M"}
+    for name, given, want in (("cp.fold", letters, ("V", "M")),
+                              ("swapped.fold", {e: swap[c] for e, c in letters.items()}, ("M", "V"))):
+        path = fold_other_tool(tmp_path / name, flat, F, given, unit="m")
+        assert main(["info", str(path), "--report", str(tmp_path / "info.json"), "-q"]) == 0
+        creases = json.loads((tmp_path / "info.json").read_text())["structure"]["creases"]
+        assert [(c["M"], c["V"], c["U"]) for c in creases] == [
+            (12 * (w == "M"), 12 * (w == "V"), 0) for w in want]

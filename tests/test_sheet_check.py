@@ -70,7 +70,7 @@ def test_the_same_crease_grooved_to_0_4_mm_passes_fabkit_check(grooved):
     L = rep["loads"]
     assert L["ok"] and L["sheet"]["crease"] == "grooved to a 0.4 mm ligament"
     checks = [c for st in L["states"] for c in st["checks"]]
-    assert {c["check"] for c in checks} == {"wrist couple", "fold force + payload weight", "cup pull"}
+    assert {c["check"] for c in checks} == {"wrist couple", "fold force + payload weight", "cup pull", "cup tilt"}
     assert all(c["ok"] and c["ratio"] <= 1 for c in checks)
     assert max(c["moment_nm"] for c in checks) == pytest.approx(36.6 * 0.4 ** 2, abs=0.05)  # m_p ~ t_l^2
 

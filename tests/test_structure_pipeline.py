@@ -88,9 +88,9 @@ def _pipeline(tmp_path, tagged, variant):
 def _check_and_send(tmp_path, path, send: bool, arm_hits_panel: bool = False):
     """`fabkit check` (holds proven in every state: the clamp on one end of the row, the cup on the
     other), then with `send` a dry-run `fabkit send` to the controller stand-in. `arm_hits_panel`:
-    a 175 deg valley fold closes the wing over the cup (it grips the front side): the holds are
-    proven, but the check refuses the arm or tool inside the folded panel (and the wing on the
-    post)."""
+    a 175 deg valley fold closes the wing over a cup on the front side, and on the bench cell the
+    arm cannot grip the back instead (under a panel 0.3 m over the bench every branch meets the
+    bench or the panel): the holds are proven, but the check refuses the arm inside the panel."""
     from _ursim import StandIn
 
     check = tmp_path / "check.json"
@@ -99,6 +99,8 @@ def _check_and_send(tmp_path, path, send: bool, arm_hits_panel: bool = False):
     if arm_hits_panel:
         assert rc == 1 and rep["holds"]["ok"] and not [p for p in rep["problems"] if p["kind"] == "holds"]
         assert any(p["kind"] == "collision" and p["pair"][1].startswith("face_") for p in rep["problems"])
+        tried = json.loads((tmp_path / "toolpath.json").read_text())["faces_tried"]
+        assert any(t["problem"].startswith("back side: check:") for t in tried), tried  # both sides tried
         return
     assert rc == 0 and rep["ok"], [p["detail"] for p in rep["problems"]]
     assert rep["holds"]["ok"] and all(s["ok"] for s in rep["holds"]["states"]) and rep["panel_collisions"]["ok"]

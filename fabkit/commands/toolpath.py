@@ -116,7 +116,8 @@ def run(args) -> int:
             fh.write(script)
     write_report(args, program.report(args.output, args.script))
     checks = tp.extra["checks"]
-    say(args, f"{args.output}: {len(tp)} waypoints for {cell.model.name} in {cell.name}, grip face {res.grip_face} "
+    say(args, f"{args.output}: {len(tp)} waypoints for {cell.model.name} in {cell.name}, grip face {res.grip_face}"
+              f"{'' if tp.extra['grip'].get('side', 'front') == 'front' else ' (back side)'} "
               f"({res.branch}), cycle time ~{res.cycle_time:.1f} s, largest fold step "
               f"{math.degrees(checks['max_fold_joint_step_rad']):.2f} deg, sha256 {tp.sha256[:12]}")
     if args.script:

@@ -4,8 +4,8 @@ panel mass, minimum bend radius, and springback-compensated fold states.
 Formulas, sources and limits: docs/sheet.md. Inputs are a `SheetSpec` (material from
 `fabkit.materials`, thickness, crease preparation, inside radius); SI units throughout.
 """
-from fabkit.sheet.development import (DESIGN_SURFACES, bend_allowance, crease_correction, flat_length,
-                                      front_face_offset, k_factor, neutral_offset)
+from fabkit.sheet.development import (DESIGN_SURFACES, back_face_offset, bend_allowance, crease_correction,
+                                      flat_length, front_face_offset, k_factor, neutral_offset)
 from fabkit.sheet.loads import FoldMoment, PanelMass, VacuumCup, fold_moment, panel_mass
 from fabkit.sheet.spec import (BendRadiusError, SheetSpec, check_bend_radius, minimum_inside_radius, sheet_of,
                               sheet_spec)
@@ -15,5 +15,6 @@ from fabkit.sheet.springback import (SpringbackError, crease_plastic_moment_per_
 __all__ = ["SheetSpec", "sheet_spec", "sheet_of", "minimum_inside_radius", "check_bend_radius", "BendRadiusError",
            "springback_ratio", "released_angle", "programmed_angle", "SpringbackError",
            "panel_unfolding_moment", "crease_plastic_moment_per_length", "k_factor", "neutral_offset",
-           "bend_allowance", "crease_correction", "flat_length", "front_face_offset", "DESIGN_SURFACES", "fold_moment", "FoldMoment",
+           "bend_allowance", "crease_correction", "flat_length", "front_face_offset",
+           "back_face_offset", "DESIGN_SURFACES", "fold_moment", "FoldMoment",
            "VacuumCup", "panel_mass", "PanelMass"]

@@ -104,8 +104,9 @@ def panel_creases(model) -> tuple[Crease, ...]:
 @dataclass(frozen=True)
 class ArmFold:
     """A crease the arm folds in one fold state: `state`, `crease`, lever arm `lever` [m] from the
-    crease to the grip face's centre (flat pattern), `pull` (the cup on the front face must pull:
-    a valley lifts the gripped face toward the cup)."""
+    crease to the grip face's centre (flat pattern), `pull` (the cup must pull: a valley turns the
+    gripped face toward its front, so a cup on the front pulls and one on the back pushes; a
+    mountain the reverse)."""
 
     state: int
     crease: Crease
@@ -113,10 +114,11 @@ class ArmFold:
     pull: bool
 
 
-def arm_folds(model, creases, grip_face: int, fixed_face: int | None = None) -> list[ArmFold]:
+def arm_folds(model, creases, grip_face: int, fixed_face: int | None = None, side: str = "front") -> list[ArmFold]:
     """The creases between the clamped face and the gripped face, in every state where they fold
     further (mean |angle| over the crease grows). Needs strip tags (`faces_fabkit:strip`); without
-    them every crease counts. Faces are polygon ids (`faces_fabkit:polygon`) or FOLD faces."""
+    them every crease counts. Faces are polygon ids (`faces_fabkit:polygon`) or FOLD faces; `side`:
+    the side of the sheet the cup grips (front or back)."""
     from fabkit.frames import face_groups
 
     groups = face_groups(model.faces_vertices, model.faces_data)
@@ -143,5 +145,5 @@ def arm_folds(model, creases, grip_face: int, fixed_face: int | None = None) -> 
                 continue
             now, before = angles[s][c.edges].mean(), angles[s - 1][c.edges].mean()
             if abs(now) > abs(before) + 1e-12:
-                out.append(ArmFold(s, c, lever, bool(now > 0)))
+                out.append(ArmFold(s, c, lever, bool(now > 0) if side == "front" else bool(now < 0)))
     return out

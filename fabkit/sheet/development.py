@@ -19,7 +19,7 @@ import math
 from fabkit.errors import InputError
 from fabkit.sheet.spec import SheetSpec
 
-__all__ = ["DESIGN_SURFACES", "front_face_offset", "k_factor", "din6935_k_factor", "neutral_offset", "bend_allowance",
+__all__ = ["DESIGN_SURFACES", "front_face_offset", "back_face_offset", "k_factor", "din6935_k_factor", "neutral_offset", "bend_allowance",
            "design_offset", "crease_correction", "flat_length"]
 
 DESIGN_SURFACES = ("top", "mid", "bottom")
@@ -72,6 +72,13 @@ def front_face_offset(spec: SheetSpec, design_surface: str = "top") -> float:
         raise InputError(f"unknown design surface {design_surface!r} (choose {', '.join(DESIGN_SURFACES)})",
                          source="--design-surface")
     return {"top": 0.0, "mid": 0.5, "bottom": 1.0}[design_surface] * spec.thickness
+
+
+def back_face_offset(spec: SheetSpec, design_surface: str = "top") -> float:
+    """How far [m] the sheet's back face lies behind the design surface, against the front normal:
+    t for the top face as the design surface, t/2 for the mid-surface, 0 for the bottom face. A cup
+    gripping from the back touches the back face, so this is the TCP standoff the sheet adds there."""
+    return spec.thickness - front_face_offset(spec, design_surface)
 
 
 def crease_correction(spec: SheetSpec, alpha: float, design_surface: str = "top") -> float:

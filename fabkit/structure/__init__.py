@@ -113,6 +113,16 @@ def assigned_creases(model) -> np.ndarray | None:
     return ids if len(ids) else None
 
 
+def assigned_letters(model, mesh: PolyMesh) -> np.ndarray:
+    """(E,) the FOLD model's own assignment letter of every edge of `mesh` (its `model.mesh()`),
+    "" where the file has none: for `panel_structure(..., crease_letters=)`."""
+    letters = np.full(mesh.n_edges, "", dtype="<U1")
+    idx = np.asarray(model.mesh_edge_index)
+    ok = idx >= 0
+    letters[idx[ok]] = np.asarray(model.edges_assignment)[ok]
+    return letters
+
+
 def strips_of_creases(mesh: PolyMesh, crease: np.ndarray) -> np.ndarray:
     """Strip number (F,) 0..k-1 of every face: the regions no crease edge (`crease` (E,) bool)
     separates, numbered along the strip adjacency from geometry alone (`layout.order_strips`), so
@@ -162,12 +172,15 @@ def _oriented_chains(mesh: PolyMesh, crease: np.ndarray, chains) -> list[list[in
     return out
 
 
-def panel_structure(mesh: PolyMesh, *, use_tags: bool = True, crease_edges=None) -> PanelStructure:
+def panel_structure(mesh: PolyMesh, *, use_tags: bool = True, crease_edges=None,
+                    crease_letters=None) -> PanelStructure:
     """The structure of `mesh` (folded, for inference): tags where present, geometry elsewhere.
 
     `crease_edges`: ids of `mesh.edges` that are creases by an explicit statement other than strip
     tags (a FOLD file's M/V/U assignments); they win over the geometry, strip tags win over them.
-    Edges among them that separate no faces are dropped (strips must be regions)."""
+    Edges among them that separate no faces are dropped (strips must be regions).
+    `crease_letters`: (E,) letters per mesh edge (a FOLD file's own assignments); a crease that is
+    flat in `mesh` (a crease pattern without a folded frame) keeps its M or V from them."""
     t = mesh.topology
     fd = mesh.face_data if use_tags else {}
     angle = dihedral_angles(mesh)
@@ -178,6 +191,10 @@ def panel_structure(mesh: PolyMesh, *, use_tags: bool = True, crease_edges=None)
     assignment[crease & (fold > FLAT_ANGLE)] = "V"
     assignment[crease & (fold < -FLAT_ANGLE)] = "M"
     assignment[crease & (np.abs(fold) <= FLAT_ANGLE)] = "U"
+    if crease_letters is not None:  # flat: the crease pattern's own mountain / valley
+        given = np.char.upper(np.asarray(crease_letters).astype(str))
+        keep = crease & (np.abs(fold) <= FLAT_ANGLE) & np.isin(given, ["M", "V"])
+        assignment[keep] = given[keep]
     assignment[t.boundary_edge_mask] = "B"
     ef = np.maximum(t.edge_faces, 0)
     crease_row = np.where(crease, np.minimum(strip[ef[:, 0]], strip[ef[:, 1]]), -1)
