@@ -249,7 +249,9 @@ def plan(folds: Folds, cell: str | os.PathLike, *, workdir: str | os.PathLike | 
                          variants=approach_variants(options) if approach is None else ())
     except PlanningError as exc:
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),), **common)
-    tp = res.toolpath
+    from robot.jig_holds import with_jig_holds
+
+    tp = with_jig_holds(res.toolpath, cell_obj, model)   # the faces the cell's jigs hold (PATH.json holds.jigs)
     if compensated is not None:
         tp, loads = sheet_records(tp, spec, design_model, compensated, cell_obj, res.grip_face, tool_mass,
                                   design_surface=design_surface)

@@ -22,15 +22,19 @@ def checked_acceptor(cell, fold_file: str | Path, max_checks: int = MAX_CHECKS):
     """`accept(PlanResult) -> problem or None` for `plan_panel`: None when the candidate's toolpath
     passes the check in `cell` with the panel of `fold_file`, else its first problem (and after
     `max_checks` checks every further candidate is refused unchecked)."""
+    from fabkit.io.fold import load_fold
+    from robot.jig_holds import with_jig_holds
     from sim.check import check_toolpath
 
     done = []
+    fold_model = load_fold(fold_file) if getattr(cell, "jigs", ()) else None
 
     def accept(res) -> str | None:
         if len(done) >= max_checks:
             return f"not checked (the first {max_checks} candidates that planned were checked)"
         done.append(res.grip_face)
-        report = check_toolpath(res.toolpath, cell, fold=fold_file)
+        tp = res.toolpath if fold_model is None else with_jig_holds(res.toolpath, cell, fold_model)  # as written
+        report = check_toolpath(tp, cell, fold=fold_file)
         if report.ok:
             return None
         p = report.problems[0]

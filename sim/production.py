@@ -53,7 +53,9 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
                              clamped_faces=clamped_faces_of(model), placement=placement)
         except PlanningError as exc:
             return {**out, "stage": "program", "reason": str(exc)}
-        tp = res.toolpath
+        from robot.jig_holds import with_jig_holds
+
+        tp = with_jig_holds(res.toolpath, cell, model)   # the faces the cell's jigs hold
         out.update(toolpath=tp.to_json(), grip_face=int(res.grip_face), cycle_time_s=float(res.cycle_time))
         # the check `fabkit check` runs: arm, panel, holds, the panel's own collisions
         report = run_toolpath_check(tp, cell, fold=path, thickness=thickness).report

@@ -163,7 +163,9 @@ def run(args) -> int:
             print(f"fabkit toolpath: {args.fold}: {exc}", file=sys.stderr)
             write_report(args, {**report, "ok": False, "problems": [exc.as_problem()]})
             return 1
-    tp = res.toolpath
+    from robot.jig_holds import with_jig_holds
+
+    tp = with_jig_holds(res.toolpath, cell, model)   # the faces the cell's jigs hold (PATH.json holds.jigs)
     if compensated is not None:  # ---- sheet hook: angles, payload and fold loads into PATH.json ----
         from fabkit.commands._sheet import toolpath_sheet_record
 
