@@ -1,0 +1,144 @@
+"""Jigs: a cell element that holds a wing. A one-arm program that folds one crease of a straight
+letter fold leaves the other wing free and is refused; with the cell's jig holding that wing the
+same program is proven held in every state, the jig's footprint lies on the face it holds, and
+only that face may touch the jig's body."""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from refold_panels import letter_fold_pair
+
+from fabkit.cli import main
+from fabkit.errors import InputError
+from robot.cell import load_cell, parse_cell
+from robot.toolpath import Toolpath
+
+ROOT = Path(__file__).resolve().parent.parent
+JIG_CELL = str(ROOT / "cells" / "ur10e_jig.toml")
+
+
+def first_phase_fold(path: Path) -> Path:
+    """A 0.6 m x 0.2 m letter fold clamped on its middle strip, refolded crease 1 first, cut after
+    that phase: crease 0 (a straight crease) stays flat, so nothing but a hold on strip 0 fixes it."""
+    from fabkit.io.fold import save_fold
+    from fabkit.refold import refold
+    from fabkit.refold.export import to_fold_model
+
+    flat, target = letter_fold_pair(np.radians(90), nx=6, ny=2, size=0.6)
+    fcol = np.repeat(np.arange(6), 2)
+    middle = ((flat.face_data["column"] == 1) & np.isin(fcol, [0, 2, 5])).astype(np.int64)
+    flat.face_data["middle"] = target.face_data["middle"] = middle
+    seq = refold(flat, target, frames=4, steps="crease1,crease0", fixed_face=5)
+    model = to_fold_model(seq)
+    first = int(np.flatnonzero(np.asarray(seq.step) == 1)[0])
+    save_fold(replace(model, frames=model.frames[:first]), path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def jig_program(tmp_path_factory):
+    d = tmp_path_factory.mktemp("jig")
+    fold = first_phase_fold(d / "phase1.fold")
+    path = d / "path.json"
+    assert main(["toolpath", str(fold), "--cell", JIG_CELL, "-o", str(path), "--approach", "0.1", "-q"]) == 0
+    return fold, path
+
+
+def without_jigs(tp: Toolpath) -> Toolpath:
+    holds = {k: v for k, v in tp.extra["holds"].items() if k != "jigs"}
+    return Toolpath(tp.robot, tp.cell, tp.tcp, tp.source, tp.waypoints, {**tp.extra, "holds": holds}, tp.cell_sha256)
+
+
+def test_path_json_names_the_jig_and_the_face_it_holds(jig_program):
+    _, path = jig_program
+    doc = json.loads(path.read_text())
+    row = doc["holds"]["jigs"]["wing_pad"]
+    assert len(row) == len(doc["waypoints"]) and set(row) == {1}   # face 1 (strip 0) lies on the pad throughout
+    assert doc["holds"]["clamped_faces"] == [5]
+
+
+def test_the_program_without_the_jig_is_refused_naming_the_free_crease(jig_program):
+    from sim.check import check_toolpath
+
+    fold, path = jig_program
+    rep = check_toolpath(without_jigs(Toolpath.load(path)), load_cell(JIG_CELL), fold=fold)
+    holds = [p for p in rep.problems if p.kind == "holds"]
+    assert holds and {p.subject for p in holds} >= {"crease 0"}
+    assert "is folded by nothing held" in holds[0].detail
+    # the face is not held, so it may not lie on the jig's body either
+    assert "jig_checks" not in rep.holds
+
+
+def test_the_same_program_with_the_jig_holds_in_every_state(jig_program, tmp_path):
+    fold, path = jig_program
+    out = tmp_path / "check.json"
+    assert main(["check", str(path), "--cell", JIG_CELL, "-o", str(out), "-q"]) == 0
+    rep = json.loads(out.read_text())
+    assert rep["ok"] and rep["holds"]["ok"]
+    states = rep["holds"]["states"]
+    assert len(states) == 7 and all(s["ok"] and 1 in s["held_faces"] for s in states)
+    assert all(s["nullity"] == 0 for s in states if not s["flat"])
+    jig = rep["holds"]["jig_checks"]["wing_pad"]
+    assert jig["ok"] and jig["spans"][0]["face"] == 1 and jig["spans"][0]["footprint_outside_m"] == 0.0
+    # the held face rests on the jig's body (the pad top at the sheet's mid-plane: half the 1 mm sheet deep)
+    rest = rep["panel_collisions"]["resting_on_jig"]
+    assert [r["pair"] for r in rest] == [["face_1", "wing_pad_post"]]
+    assert rest[0]["depth_m"] == pytest.approx(5e-4, abs=1e-6)
+
+
+def test_a_jig_beside_the_face_it_claims_is_refused(jig_program):
+    """Moved 70 mm along the panel the pad lies on face 3 (the next column): its farthest corner is
+    40 mm off face 1, the face the program says the jig holds."""
+    from robot.cell import Jig
+    from sim.check import check_toolpath
+
+    fold, path = jig_program
+    cell = load_cell(JIG_CELL)
+    jig = cell.jigs[0]
+    moved = jig.pose.copy()
+    moved[1, 3] += 0.07
+    other = replace(cell, jigs=(Jig(jig.name, moved, jig.footprint, ""),))
+    rep = check_toolpath(Toolpath.load(path), other, fold=fold)
+    bad = [p for p in rep.problems if p.subject == "jig wing_pad"]
+    assert len(bad) == 1 and "leaves face 1" in bad[0].detail and bad[0].value == pytest.approx(0.04, abs=1e-9)
+
+
+def test_another_face_on_the_jig_body_is_a_collision(jig_program):
+    """A jig row naming another face than the one on the pad: the footprint check fails, and face 1
+    lying on the post is no longer exempt."""
+    from sim.check import check_toolpath
+
+    fold, path = jig_program
+    tp = Toolpath.load(path)
+    holds = dict(tp.extra["holds"])
+    holds["jigs"] = {"wing_pad": [3 if f is not None else None for f in holds["jigs"]["wing_pad"]]}
+    tp = Toolpath(tp.robot, tp.cell, tp.tcp, tp.source, tp.waypoints, {**tp.extra, "holds": holds}, tp.cell_sha256)
+    rep = check_toolpath(tp, load_cell(JIG_CELL), fold=fold)
+    kinds = {(p.kind, p.subject) for p in rep.problems}
+    assert ("holds", "jig wing_pad") in kinds and ("panel_collision", "face_1 × wing_pad_post") in kinds
+
+
+def test_jig_table_is_validated_naming_the_key():
+    import tomllib
+
+    data = tomllib.loads(Path(JIG_CELL).read_text())
+    bad = json.loads(json.dumps(data))
+    bad["jigs"][0]["obstacle"] = "nowhere"
+    with pytest.raises(InputError, match=r"jigs\[0\]\.obstacle: 'nowhere' is not one of the cell's obstacles"):
+        parse_cell(bad, "x.toml")
+    bad = json.loads(json.dumps(data))
+    bad["jigs"][0]["footprint"] = [[0, 0], [1, 0]]
+    with pytest.raises(InputError, match=r"jigs\[0\]\.footprint: expected a polygon"):
+        parse_cell(bad, "x.toml")
+    bad = json.loads(json.dumps(data))
+    bad["jigs"].append(dict(bad["jigs"][0]))
+    with pytest.raises(InputError, match=r"jigs\[1\]\.name: 'wing_pad' is used twice"):
+        parse_cell(bad, "x.toml")
+    bad = json.loads(json.dumps(data))
+    bad["jigs"][0]["colour"] = "red"
+    with pytest.raises(InputError, match=r"jigs\[0\]\.colour: unknown key"):
+        parse_cell(bad, "x.toml")
