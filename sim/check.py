@@ -246,6 +246,10 @@ def _with_panel_checks(report: CheckReport, tp, prog: Program, cell, model, fold
     if jig_record:
         holds = replace(holds, record={**holds.record, "jig_checks": jig_record,
                                        "ok": holds.record["ok"] and not jig_problems})
+    if holds.record.get("states"):   # what folds each crease (sim.check_crease_holds), for people and report.html
+        from sim.check_crease_holds import crease_records
+
+        holds = replace(holds, record={**holds.record, "creases": crease_records(model, holds.record, prog.states)})
     jig_holds = {cell.jig(n).obstacle: (s["spans"][0]["face"], [tuple(x["states"]) for x in s["spans"]])
                  for n, s in jig_record.items() if s["spans"] and cell.jig(n) is not None and cell.jig(n).obstacle}
     panel = check_panel_collisions_of_fold(model, cell, prog.states, holds.record["clamped_faces"],

@@ -5,16 +5,16 @@ per arm and per jig the face held on the move into every waypoint) this module s
 waypoint, which face each hold has (`held_faces`), in which colour it is drawn (`HoldColours`:
 the clamp blue, each jig purple, each arm its own colour: green, cyan, ...), and where an arm takes or lets go
 of a face (`grip_changes`). `draw_legend` writes the legend and a banner onto an RGB frame
-(Pillow). Any number of arms: the record's `arms` keys, in order.
+(Pillow). Any number of arms: the record's `arms` keys, in order. Which face each hold has, and
+the grip changes, are `fabkit.held_faces`'s (report.html reads the same).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-__all__ = ["PLAIN_RGBA", "CLAMP_RGBA", "JIG_RGBA", "ARM_RGBAS", "Hold", "GripChange", "held_faces", "grip_changes",
-           "hold_roles", "draw_legend"]
+from fabkit.held_faces import Hold, held_faces
+
+__all__ = ["PLAIN_RGBA", "CLAMP_RGBA", "JIG_RGBA", "ARM_RGBAS", "hold_roles", "colour_of", "draw_legend"]
 
 PLAIN_RGBA = (0.8, 0.82, 0.86, 1.0)       # a face nothing holds (the cell model's panel colour)
 CLAMP_RGBA = (0.12, 0.32, 0.92, 1.0)      # blue
@@ -22,33 +22,6 @@ JIG_RGBA = (0.62, 0.16, 0.78, 1.0)        # purple
 #: One colour per arm, in the record's order: green, cyan, gold, brown (not the tool's orange, not
 #: the red of a collision pair).
 ARM_RGBAS = ((0.1, 0.72, 0.2, 1.0), (0.0, 0.72, 0.85, 1.0), (0.95, 0.8, 0.0, 1.0), (0.55, 0.35, 0.15, 1.0))
-
-
-@dataclass(frozen=True)
-class Hold:
-    """One hold on one face: `role` "clamp" | "arm" | "jig", `name` ("a", "wing_pad", ""), `face`."""
-
-    role: str
-    name: str
-    face: int
-
-    @property
-    def label(self) -> str:
-        return "clamp" if self.role == "clamp" else f"{self.role} {self.name}"
-
-
-@dataclass(frozen=True)
-class GripChange:
-    """At `waypoint` arm `arm` starts holding `face` (`grips` True) or lets go of it."""
-
-    waypoint: int
-    arm: str
-    face: int
-    grips: bool
-
-    @property
-    def text(self) -> str:
-        return f"waypoint {self.waypoint}: arm {self.arm} {'grips' if self.grips else 'releases'} face {self.face}"
 
 
 def hold_roles(record: dict) -> list[tuple[str, tuple[float, ...]]]:
@@ -61,36 +34,6 @@ def hold_roles(record: dict) -> list[tuple[str, tuple[float, ...]]]:
 
 def colour_of(record: dict, hold: Hold) -> tuple[float, ...]:
     return dict(hold_roles(record))[hold.label]
-
-
-def held_faces(record: dict | None, waypoint: int) -> list[Hold]:
-    """The holds at `waypoint` (the faces held on the move into it and on arrival)."""
-    if not record:
-        return []
-    out = [Hold("clamp", "", int(f)) for f in record.get("clamped_faces", [])]
-    for role, key in (("arm", "arms"), ("jig", "jigs")):
-        for name, row in record.get(key, {}).items():
-            if 0 <= waypoint < len(row) and row[waypoint] is not None:
-                out.append(Hold(role, str(name), int(row[waypoint])))
-    return out
-
-
-def grip_changes(record: dict | None) -> list[GripChange]:
-    """Every change of an arm's held face (a grip, a release, a regrip), in order. Row entry i is
-    the face held on the move into waypoint i, and the gripper switches after arriving, so a change
-    between entries k-1 and k happens at waypoint k-1 (the `grip` or `release` waypoint)."""
-    out = []
-    for arm, row in (record or {}).get("arms", {}).items():
-        prev = None
-        for k, f in enumerate(row):
-            if f != prev:
-                at = max(k - 1, 0)
-                if prev is not None:
-                    out.append(GripChange(at, str(arm), int(prev), False))
-                if f is not None:
-                    out.append(GripChange(at, str(arm), int(f), True))
-            prev = f
-    return sorted(out, key=lambda c: (c.waypoint, c.arm, c.grips))
 
 
 def _rgb255(rgba) -> tuple[int, int, int]:

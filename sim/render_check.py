@@ -45,7 +45,8 @@ def face_points(panel, face_id: int, state: float, shrink: float = 0.6) -> np.nd
 
 def _colour_map(record: dict | None, cell, waypoint: int) -> dict:
     """{geom name: rgba} of the faces held at `waypoint`, and of the bodies of the jigs holding."""
-    from sim.hold_colours import colour_of, held_faces
+    from fabkit.held_faces import held_faces
+    from sim.hold_colours import colour_of
 
     out = {}
     for h in held_faces(record, waypoint):
@@ -103,7 +104,8 @@ def render_waypoint(run, cell, path: str | Path, size: tuple[int, int] = (640, 4
             break
     if j is None:
         raise InputError(f"waypoint {k} has no joint solution to draw", source="--waypoint")
-    from sim.hold_colours import draw_legend, grip_changes
+    from fabkit.held_faces import grip_changes
+    from sim.hold_colours import draw_legend
     from sim.render import project_points
 
     record = _holds(run)
@@ -118,7 +120,7 @@ def render_waypoint(run, cell, path: str | Path, size: tuple[int, int] = (640, 4
                                     on_scene=lambda _, scene: scenes.append(project_scene(scene)),
                                     overlay=lambda fr, _: draw_legend(fr, record, k, banner))))
     write_png(path, frame)
-    from sim.hold_colours import held_faces
+    from fabkit.held_faces import held_faces
 
     held = []
     for hold in held_faces(record, k) if run.panel is not None else []:
@@ -136,7 +138,8 @@ def render_movie(run, cell, path: str | Path, size: tuple[int, int] = (640, 480)
 
     if not 2 <= max_frames <= 10000:
         raise InputError(f"must be in 2..10000, got {max_frames}", source="--frames")
-    from sim.hold_colours import draw_legend, grip_changes
+    from fabkit.held_faces import grip_changes
+    from sim.hold_colours import draw_legend
 
     dense, record = run.dense, _holds(run)
     m = _model_with_every_arm(cell, run.panel)

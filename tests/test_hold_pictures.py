@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.hold_colours import (ARM_RGBAS, CLAMP_RGBA, JIG_RGBA, grip_changes, held_faces, hold_roles)
+from fabkit.held_faces import grip_changes, held_faces
+from sim.hold_colours import ARM_RGBAS, CLAMP_RGBA, JIG_RGBA, hold_roles
 
 ROOT = Path(__file__).resolve().parent.parent
 JIG_CELL = str(ROOT / "cells" / "ur10e_jig.toml")

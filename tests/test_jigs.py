@@ -142,3 +142,36 @@ def test_jig_table_is_validated_naming_the_key():
     bad["jigs"][0]["colour"] = "red"
     with pytest.raises(InputError, match=r"jigs\[0\]\.colour: unknown key"):
         parse_cell(bad, "x.toml")
+
+
+@pytest.mark.skipif(__import__("browser").chromium() is None, reason="Debian chromium not installed")
+def test_report_html_says_what_folds_each_crease(jig_program, tmp_path):
+    """The page as the browser built it: per crease the holds on each side, per state the faces held."""
+    from browser import dump_dom, table_rows
+
+    from sim.check import check_toolpath
+
+    fold, path = jig_program
+    cell = load_cell(JIG_CELL)
+    pages = {}
+    for name, tp in (("free", without_jigs(Toolpath.load(path))), ("jig", Toolpath.load(path))):
+        d = tmp_path / name
+        d.mkdir()
+        (d / "check.json").write_text(json.dumps(check_toolpath(tp, cell, fold=fold).to_json()))
+        assert main(["report", str(d), "-q"]) == 0
+        dom = dump_dom(d / "report.html")
+        pages[name] = (table_rows(dom, "What folds each crease"), table_rows(dom, "Held faces per fold state"))
+    creases, states = pages["free"]
+    assert creases[0] == ["crease", "waypoints", "fold states", "one side", "other side", "verdict"]
+    by_crease = {r[0]: r for r in creases[1:]}
+    assert by_crease["0"][3] == "faces 0–3: nothing" and by_crease["0"][5] == "FREE: faces 0–3 held by nothing"
+    assert by_crease["1"][5] == "folded 0.0° → 90.0° by arm a face 11 against clamp face 5"
+    assert states[0] == ["fold state", "waypoints", "clamp", "arm a", "holds proven", "nullity", "sigma_min"]
+    assert all(r[4].startswith("no: crease 0") for r in states[1:])
+    creases, states = pages["jig"]
+    by_crease = {r[0]: r for r in creases[1:]}
+    assert by_crease["0"][3] == "faces 0–3: jig wing_pad face 1"
+    assert by_crease["0"][5] == "held at 0.0° between jig wing_pad face 1 and clamp face 5 + arm a face 11"
+    assert by_crease["1"][5] == "folded 0.0° → 90.0° by arm a face 11 against clamp face 5 + jig wing_pad face 1"
+    assert states[0][2:5] == ["clamp", "arm a", "jig wing_pad"]
+    assert len(states) == 8 and all(r[2:5] == ["5", "11", "1"] and r[5].startswith("yes") for r in states[1:])
