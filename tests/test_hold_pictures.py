@@ -39,17 +39,13 @@ def gl():
 
 
 @pytest.fixture(scope="module")
-def jig_run(tmp_path_factory):
-    from test_jigs import first_phase_fold
+def jig_run():
+    from test_jigs import planned_jig_program
 
-    from fabkit.cli import main
     from robot.cell import load_cell
     from sim.check import run_toolpath_check
 
-    d = tmp_path_factory.mktemp("pictures")
-    fold = first_phase_fold(d / "phase1.fold")
-    path = d / "path.json"
-    assert main(["toolpath", str(fold), "--cell", JIG_CELL, "-o", str(path), "--approach", "0.1", "-q"]) == 0
+    fold, path = planned_jig_program()
     cell = load_cell(JIG_CELL)
     return run_toolpath_check(path, cell, fold=fold), cell
 

@@ -4,7 +4,9 @@ same program is proven held in every state, the jig's footprint lies on the face
 only that face may touch the jig's body."""
 from __future__ import annotations
 
+import functools
 import json
+import tempfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -39,18 +41,36 @@ def first_phase_fold(path: Path) -> Path:
     return path
 
 
-@pytest.fixture(scope="module")
-def jig_program(tmp_path_factory):
-    d = tmp_path_factory.mktemp("jig")
+@functools.lru_cache(maxsize=None)
+def planned_jig_program() -> tuple[Path, Path]:
+    """(FOLD file, PATH.json) of the first phase planned by `fabkit toolpath` in the jig cell (once
+    per test process: the picture tests use it too)."""
+    d = Path(tempfile.mkdtemp(prefix="fabkit_jig_"))
     fold = first_phase_fold(d / "phase1.fold")
     path = d / "path.json"
     assert main(["toolpath", str(fold), "--cell", JIG_CELL, "-o", str(path), "--approach", "0.1", "-q"]) == 0
     return fold, path
 
 
+@pytest.fixture(scope="module")
+def jig_program():
+    return planned_jig_program()
+
+
 def without_jigs(tp: Toolpath) -> Toolpath:
     holds = {k: v for k, v in tp.extra["holds"].items() if k != "jigs"}
     return Toolpath(tp.robot, tp.cell, tp.tcp, tp.source, tp.waypoints, {**tp.extra, "holds": holds}, tp.cell_sha256)
+
+
+@pytest.fixture(scope="module")
+def checked(jig_program):
+    """The CHECK.json of the program without its jig rows ("free") and as planned ("jig")."""
+    from sim.check import check_toolpath
+
+    fold, path = jig_program
+    cell = load_cell(JIG_CELL)
+    return {name: check_toolpath(tp, cell, fold=fold)
+            for name, tp in (("free", without_jigs(Toolpath.load(path))), ("jig", Toolpath.load(path)))}
 
 
 def test_path_json_names_the_jig_and_the_face_it_holds(jig_program):
@@ -61,11 +81,8 @@ def test_path_json_names_the_jig_and_the_face_it_holds(jig_program):
     assert doc["holds"]["clamped_faces"] == [5]
 
 
-def test_the_program_without_the_jig_is_refused_naming_the_free_crease(jig_program):
-    from sim.check import check_toolpath
-
-    fold, path = jig_program
-    rep = check_toolpath(without_jigs(Toolpath.load(path)), load_cell(JIG_CELL), fold=fold)
+def test_the_program_without_the_jig_is_refused_naming_the_free_crease(checked):
+    rep = checked["free"]
     holds = [p for p in rep.problems if p.kind == "holds"]
     assert holds and {p.subject for p in holds} >= {"crease 0"}
     assert "is folded by nothing held" in holds[0].detail
@@ -145,19 +162,15 @@ def test_jig_table_is_validated_naming_the_key():
 
 
 @pytest.mark.skipif(__import__("browser").chromium() is None, reason="Debian chromium not installed")
-def test_report_html_says_what_folds_each_crease(jig_program, tmp_path):
+def test_report_html_says_what_folds_each_crease(checked, tmp_path):
     """The page as the browser built it: per crease the holds on each side, per state the faces held."""
     from browser import dump_dom, table_rows
 
-    from sim.check import check_toolpath
-
-    fold, path = jig_program
-    cell = load_cell(JIG_CELL)
     pages = {}
-    for name, tp in (("free", without_jigs(Toolpath.load(path))), ("jig", Toolpath.load(path))):
+    for name, rep in checked.items():
         d = tmp_path / name
         d.mkdir()
-        (d / "check.json").write_text(json.dumps(check_toolpath(tp, cell, fold=fold).to_json()))
+        (d / "check.json").write_text(json.dumps(rep.to_json()))
         assert main(["report", str(d), "-q"]) == 0
         dom = dump_dom(d / "report.html")
         pages[name] = (table_rows(dom, "What folds each crease"), table_rows(dom, "Held faces per fold state"))
