@@ -239,19 +239,10 @@ def _with_panel_checks(report: CheckReport, tp, prog: Program, cell, model, fold
     from sim.check_holds import check_holds, clamp_problems
     from sim.check_panel_collisions import check_panel_collisions_of_fold
 
-    from sim.check_jigs import check_jigs
+    from sim.check_jigs import extend_holds
 
     holds = check_holds(tp, model, prog.states, source=str(fold_path))
-    jig_record, jig_problems = check_jigs(holds.record.get("jigs", {}), model, cell, prog.states)
-    if jig_record:
-        holds = replace(holds, record={**holds.record, "jig_checks": jig_record,
-                                       "ok": holds.record["ok"] and not jig_problems})
-    if holds.record.get("states"):   # what folds each crease (sim.check_crease_holds), for people and report.html
-        from sim.check_crease_holds import crease_records
-
-        holds = replace(holds, record={**holds.record, "creases": crease_records(model, holds.record, prog.states)})
-    jig_holds = {cell.jig(n).obstacle: (s["spans"][0]["face"], [tuple(x["states"]) for x in s["spans"]])
-                 for n, s in jig_record.items() if s["spans"] and cell.jig(n) is not None and cell.jig(n).obstacle}
+    holds, jig_holds, jig_problems = extend_holds(holds, model, cell, prog.states)  # jigs, what folds each crease
     panel = check_panel_collisions_of_fold(model, cell, prog.states, holds.record["clamped_faces"],
                                            thickness=thickness, jig_holds=jig_holds)
     problems = tuple(sorted(report.problems + holds.problems + panel.problems + jig_problems +

@@ -16,7 +16,7 @@ import numpy as np
 
 from sim.problems import Problem
 
-__all__ = ["jig_spans", "check_jigs"]
+__all__ = ["jig_spans", "check_jigs", "extend_holds"]
 
 
 def jig_spans(row, states) -> list[tuple[int, int, int, int, int]]:
@@ -87,3 +87,23 @@ def check_jigs(jig_rows: dict, fold_model, cell, states) -> tuple[dict, tuple[Pr
                         "footprint_outside_m": worst_out, "footprint_off_plane_m": worst_plane, "face_motion_m": move})
         record[name] = {"ok": all(s["ok"] for s in out), "obstacle": jig.obstacle, "spans": out}
     return record, tuple(problems)
+
+
+def extend_holds(holds, fold_model, cell, states):
+    """`(holds, jig_holds, problems)`: the `sim.check_holds.HoldsCheck` with the jig checks
+    (`jig_checks`, its `ok` false when one fails) and what folds each crease (`creases`,
+    `sim.check_crease_holds`) added to its record; `jig_holds` {jig obstacle: [(face, (lowest,
+    highest) fold state)]} for `sim.check_panel_collisions`; `problems` the jig problems."""
+    from dataclasses import replace
+
+    from sim.check_crease_holds import crease_records
+
+    record, problems = check_jigs(holds.record.get("jigs", {}), fold_model, cell, states)
+    rec = dict(holds.record)
+    if record:
+        rec.update(jig_checks=record, ok=rec["ok"] and not problems)
+    if rec.get("states"):
+        rec["creases"] = crease_records(fold_model, rec, states)
+    jig_holds = {cell.jig(n).obstacle: [(x["face"], tuple(x["states"])) for x in r["spans"]]
+                 for n, r in record.items() if cell.jig(n) is not None and cell.jig(n).obstacle}
+    return replace(holds, record=rec), jig_holds, problems

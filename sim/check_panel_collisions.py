@@ -9,7 +9,7 @@ and the faces that never move (they lie with it on the clamp, to 1 um in every s
 the obstacle carrying the cell's clamp (`[clamp] obstacle`) touch by design and are exempt; so is
 any face on the clamp's obstacle no deeper than the sheet thickness (the sheet lying on the post's
 top next to the clamped face: CHECK.json lists them as `resting_on_clamp`). A face a jig holds
-(`jig_holds`: {jig obstacle: (face, [(lowest, highest) held fold states, ...])}) against that
+(`jig_holds`: {jig obstacle: [(face, (lowest, highest) held fold state), ...]}) against that
 jig's body, in the states it holds it and no deeper than the sheet, is exempt the same way
 (`resting_on_jig`); every other face against a jig's body is a collision.
 Each colliding pair is one problem (kind "panel_collision") naming the pair, the fold states and
@@ -52,8 +52,8 @@ def _on_jig(c, jig_holds: dict, sheet: float) -> bool:
     """Is contact `c` the jig-held face lying on its jig's body, in states the jig holds it?"""
     if c.kind != "obstacle" or c.pair[1] not in jig_holds or c.depth_m > sheet + 1e-9:
         return False
-    face, ranges = jig_holds[c.pair[1]]
-    return c.pair[0] == f"face_{face}" and any(lo - 1e-9 <= c.state and c.last_state <= hi + 1e-9 for lo, hi in ranges)
+    return any(c.pair[0] == f"face_{face}" and lo - 1e-9 <= c.state and c.last_state <= hi + 1e-9
+               for face, (lo, hi) in jig_holds[c.pair[1]])
 
 
 def check_panel_collisions_of_fold(fold_model, cell, states, clamped_faces=(), *, thickness: float | None = None,

@@ -20,7 +20,7 @@ import numpy as np
 
 from fabkit.errors import InputError
 
-__all__ = ["render_waypoint", "render_movie", "default_waypoint", "face_points"]
+__all__ = ["render_waypoint", "render_movie", "default_waypoint", "face_points", "project_scene", "picture_model"]
 
 #: MP4 frames a grip-change banner stays up.
 BANNER_FRAMES = 12
@@ -66,7 +66,8 @@ def project_scene(scene):
     return SimpleNamespace(camera=cams)
 
 
-def _model_with_every_arm(cell, panel):
+def picture_model(cell, panel):
+    """The cell model the pictures draw: with every arm of the cell, and the panel."""
     from sim.model import build_cell_model
 
     m, _ = build_cell_model(cell, panel, all_arms=bool(getattr(cell, "extra_arms", ())))
@@ -109,7 +110,7 @@ def render_waypoint(run, cell, path: str | Path, size: tuple[int, int] = (640, 4
     from sim.render import project_points
 
     record = _holds(run)
-    m = _model_with_every_arm(cell, run.panel)
+    m = picture_model(cell, run.panel)
     w, h = size
     changes = [c.text for c in grip_changes(record) if c.waypoint == k]
     banner = "; ".join(changes) or f"waypoint {k} ({prog.ops[k]}), fold state {float(dense.state[j]):.2f}"
@@ -142,7 +143,7 @@ def render_movie(run, cell, path: str | Path, size: tuple[int, int] = (640, 480)
     from sim.hold_colours import draw_legend
 
     dense, record = run.dense, _holds(run)
-    m = _model_with_every_arm(cell, run.panel)
+    m = picture_model(cell, run.panel)
     changes = grip_changes(record)
     idx, speedup = movie_indices(dense.dt, max_frames=max(2, max_frames - len(changes)))
     # the frame of every grip change is shown: the first configuration of its waypoint

@@ -117,3 +117,24 @@ def test_the_record_is_read_for_any_number_of_arms():
     assert [c.text for c in grip_changes(record)] == [
         "waypoint 0: arm a grips face 7", "waypoint 1: arm b grips face 12", "waypoint 2: arm a releases face 7",
         "waypoint 3: arm a grips face 9", "waypoint 4: arm b releases face 12"]
+
+
+def test_every_arm_of_a_two_arm_cell_is_posed_in_the_pictures():
+    """The picture model has every arm; a one-arm row puts the others at their home, a row of every
+    arm's joints poses each."""
+    import mujoco
+
+    from robot.cell import load_cell
+    from sim.render import set_arm_qpos
+    from sim.render_check import picture_model
+
+    cell = load_cell(ROOT / "cells" / "dual_ur10e.toml")
+    m = picture_model(cell, None)
+    assert m.nq == 12
+    d = mujoco.MjData(m)
+    q_a = np.array([0.1, -1.2, 1.0, -1.4, -1.5, 0.2])
+    set_arm_qpos(m, cell, d, q_a)
+    assert np.allclose(d.qpos[:6], q_a) and np.allclose(d.qpos[6:], cell.extra_arms[0][1].home)
+    both = np.concatenate([q_a, q_a[::-1]])
+    set_arm_qpos(m, cell, d, both)
+    assert np.allclose(d.qpos, both)
