@@ -69,7 +69,8 @@ def jig_footprint_check(fold_model, fixture, jig, face: int, state: int, tol: fl
 
 
 def _candidate_faces(fold_model, fixture, jig, state: int) -> list[int]:
-    """Faces whose plane in `state` passes within 1 cm of the footprint's centre, nearest first."""
+    """Faces whose plane in `state` passes within 1 cm of the footprint's centre and that reach it
+    (their farthest corner from their centroid as far as the centre), nearest first."""
     from fabkit.frames import fold_positions
     from fabkit.hold_model_fold import fold_triangles
 
@@ -85,7 +86,8 @@ def _candidate_faces(fold_model, fixture, jig, state: int) -> list[int]:
             continue
         n = n / np.linalg.norm(n)
         c = T.reshape(-1, 3).mean(axis=0)
-        if abs((local - c) @ n) <= 0.01:
+        reach = float(np.linalg.norm(T.reshape(-1, 3) - c, axis=1).max())
+        if abs((local - c) @ n) <= 0.01 and np.linalg.norm(local - c) <= reach:
             out.append((float(np.linalg.norm(local - c)), int(f)))
     return [f for _, f in sorted(out)]
 
