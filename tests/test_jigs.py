@@ -188,3 +188,16 @@ def test_report_html_says_what_folds_each_crease(checked, tmp_path):
     assert by_crease["1"][5] == "folded 0.0° → 90.0° by arm a face 11 against clamp face 5 + jig wing_pad face 1"
     assert states[0][2:5] == ["clamp", "arm a", "jig wing_pad"]
     assert len(states) == 8 and all(r[2:5] == ["5", "11", "1"] and r[5].startswith("yes") for r in states[1:])
+
+
+def test_a_malformed_jig_row_is_refused_naming_the_key():
+    from robot.holds_record import holds_of
+
+    good = {"clamped_faces": [5], "arms": {"a": [None, 11, None]}}
+    assert holds_of({"holds": {**good, "jigs": {"pad": [1, 1, None]}}}, 3)["jigs"] == {"pad": [1, 1, None]}
+    with pytest.raises(ValueError, match=r"holds\.jigs\.pad: expected one entry per waypoint \(3\)"):
+        holds_of({"holds": {**good, "jigs": {"pad": [1]}}}, 3)
+    with pytest.raises(ValueError, match=r"holds\.jigs\.pad: expected face ids or null"):
+        holds_of({"holds": {**good, "jigs": {"pad": [1, -2, None]}}}, 3)
+    with pytest.raises(ValueError, match=r"holds\.jigs: expected"):
+        holds_of({"holds": {**good, "jigs": [1, 2, 3]}}, 3)
