@@ -178,14 +178,14 @@ def test_report_html_says_what_folds_each_crease(checked, tmp_path):
     assert creases[0] == ["crease", "waypoints", "fold states", "one side", "other side", "verdict"]
     by_crease = {r[0]: r for r in creases[1:]}
     assert by_crease["0"][3] == "faces 0–3: nothing" and by_crease["0"][5] == "FREE: faces 0–3 held by nothing"
-    assert by_crease["1"][5] == "folded 0.0° → 90.0° by arm a face 11 against clamp face 5"
+    assert by_crease["1"][5] == "folded 0.0° → 90.0° between clamp face 5 and arm a face 11"
     assert states[0] == ["fold state", "waypoints", "clamp", "arm a", "holds proven", "nullity", "sigma_min"]
     assert all(r[4].startswith("no: crease 0") for r in states[1:])
     creases, states = pages["jig"]
     by_crease = {r[0]: r for r in creases[1:]}
     assert by_crease["0"][3] == "faces 0–3: jig wing_pad face 1"
     assert by_crease["0"][5] == "held at 0.0° between jig wing_pad face 1 and clamp face 5 + arm a face 11"
-    assert by_crease["1"][5] == "folded 0.0° → 90.0° by arm a face 11 against clamp face 5 + jig wing_pad face 1"
+    assert by_crease["1"][5] == "folded 0.0° → 90.0° between clamp face 5 + jig wing_pad face 1 and arm a face 11"
     assert states[0][2:5] == ["clamp", "arm a", "jig wing_pad"]
     assert len(states) == 8 and all(r[2:5] == ["5", "11", "1"] and r[5].startswith("yes") for r in states[1:])
 

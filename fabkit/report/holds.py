@@ -16,10 +16,20 @@ def _e(x) -> str:
     return html.escape(str(x))
 
 
+def _ranges(faces) -> str:
+    """"0–15, 32–47" for sorted face ids (runs of three or more as ranges)."""
+    out, run = [], []
+    for f in list(faces) + [None]:
+        if run and (f is None or f != run[-1] + 1):
+            out += [f"{run[0]}–{run[-1]}"] if len(run) >= 3 else [str(x) for x in run]
+            run = []
+        if f is not None:
+            run.append(f)
+    return ", ".join(out)
+
+
 def _side(side: dict) -> str:
-    faces = side.get("faces") or []
-    span = f"faces {faces[0]}–{faces[-1]}" if len(faces) > 3 and faces == list(range(faces[0], faces[-1] + 1)) \
-        else f"faces {', '.join(map(str, faces))}"
+    span = f"faces {_ranges(side.get('faces') or [])}"
     holds = side.get("holds") or []
     return f"{span}: {', '.join(holds) if holds else 'nothing'}"
 
@@ -37,7 +47,7 @@ def _verdict(c: dict) -> str:
     who = [" + ".join(s["holds"]) for s in sides]
     if abs(a1 - a0) < 0.05:
         return f"held at {a1:.1f}° between {who[0]} and {who[1]}"
-    return f"folded {a0:.1f}° → {a1:.1f}° by {who[-1]} against {' and '.join(who[:-1])}"
+    return f"folded {a0:.1f}° → {a1:.1f}° between {' and '.join(who)}"
 
 
 def crease_rows(holds: dict) -> list[list[str]]:
