@@ -141,17 +141,17 @@ def jig_rows(contacts, states, ops) -> dict:
 def with_jig_holds(tp, cell, fold_model):
     """Toolpath `tp` with `holds.jigs` recorded for the jigs of `cell` (the panel where `tp`'s
     `placement` puts it) and the whole-document hash recomputed; `tp` itself when the cell has no
-    jig or no face lies on one."""
+    jig, `tp` records no holds (planned before the planner wrote them) or no face lies on a jig."""
     from robot.panel_placement import placed_cell, placement_of
     from robot.toolpath import Toolpath
 
-    if not getattr(cell, "jigs", ()):
+    if not getattr(cell, "jigs", ()) or not isinstance(tp.extra.get("holds"), dict):
         return tp
     placed = placed_cell(cell, placement_of(tp.extra))
     contacts = jig_contacts(fold_model, placed)
     if not contacts:
         return tp
-    holds = dict(tp.extra.get("holds") or {})
+    holds = dict(tp.extra["holds"])
     holds["jigs"] = jig_rows(contacts, [w.state for w in tp.waypoints], [w.op for w in tp.waypoints])
     return Toolpath(tp.robot, tp.cell, tp.tcp, tp.source, tp.waypoints, {**tp.extra, "holds": holds},
                     tp.cell_sha256)
