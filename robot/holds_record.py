@@ -6,8 +6,9 @@ is the face that arm holds while it moves to waypoint i and on arrival there: th
 switches on after arriving at `grip` and off after arriving at `release`, so an arm holds its grip
 face on the moves into `fold` and `release` waypoints and nothing on the others. The clamped faces
 are held throughout. A cell with jigs adds `"jigs": {jig: [face or null per waypoint]}` (the same
-shape as an arm's row: the face the jig holds on the move into waypoint i; `robot.jig_holds`). The record is an extra key of the document, so the whole-document hash covers
-it; `sim.check_holds` proves from it that the holds fix the panel in every state it moves through.
+shape as an arm's row: the face the jig holds on the move into waypoint i; `robot.jig_holds`). The
+record is an extra key of the document, so the whole-document hash covers it; `sim.check_holds`
+proves from it that the holds fix the panel in every state it moves through.
 """
 from __future__ import annotations
 

@@ -34,7 +34,8 @@ def two_arm_record() -> dict:
             {"waypoints": [3, 3], "states": [1.0, 2.0], "holds": ["clamp face 4", "arm b face 12", "jig pad face 1"],
              "creases": [
                  {"crease": 2, "edges": 3, "held": False, "set": False, "angle_deg": [10.0, 20.0],
-                  "sides": [side([0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 14], ["clamp face 4"]), side([12, 13, 15], [])]}]},
+                  "sides": [side([0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 14], ["clamp face 4"]),
+                            side([12, 13, 15], [])]}]},
         ]}
 
 
@@ -45,7 +46,8 @@ def test_holds_tables_for_two_arms_and_a_jig(tmp_path):
     creases = table_rows(page, "What folds each crease")
     assert creases[1] == ["0", "2–2", "0–1", "faces 0–3: jig pad face 1", "faces 4–15: clamp face 4",
                           "set earlier: locked at 30.0°"]
-    assert creases[2][5] == "folded 0.0° → 45.0° between jig pad face 1 + clamp face 4 + arm a face 7 and arm b face 12"
+    assert creases[2][5] == ("folded 0.0° → 45.0° between jig pad face 1 + clamp face 4 + arm a face 7 and "
+                             "arm b face 12")
     assert creases[3][3:] == ["faces 0–11, 14: clamp face 4", "faces 12, 13, 15: nothing",
                               "FREE: faces 12, 13, 15 held by nothing"]
     states = table_rows(page, "Held faces per fold state")
