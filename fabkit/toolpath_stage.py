@@ -185,7 +185,9 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
     except PlanningError as exc:
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),),
                        records=(exc.as_problem(),), notes=tuple(notes), **common)
-    tp, loads = res.toolpath, None
+    from robot.jig_holds import with_jig_holds
+
+    tp, loads = with_jig_holds(res.toolpath, cell, model), None   # the faces the cell's jigs hold (holds.jigs)
     if compensated is not None:  # angles, payload and fold loads into PATH.json
         if settings.tool_mass is None:
             notes.append("payload with an assumed 1.0 kg gripper (give --tool-mass)")

@@ -1,6 +1,7 @@
 """Robot cell descriptions (`cells/*.toml`): robot, tool, fixture, obstacles, limits; optional
 further arms (`[[arms]]`, each carrying the same tool), the clamp (`[clamp]`: jaw pose, footprint
-polygon, the obstacle carrying it) and the suction cup's footprint radius (`tool.cup_radius`).
+polygon, the obstacle carrying it), jigs (`[[jigs]]`: like the clamp, a pad that holds a wing
+face fixed while the program engages it) and the suction cup's footprint radius (`tool.cup_radius`).
 
 `load_cell(path)` reads a TOML file, validates it once and returns a frozen `Cell`. Every problem
 is one `InputError` line naming the file and the key (`tool.shapes[1].radius: ...`): unknown keys,
@@ -32,7 +33,7 @@ from robot.kinematics import MODELS, URModel, get_model
 from robot.rtde_limits import MAX_BLEND, MAX_JOINT_ACCEL, MAX_TOOL_ACCEL, MAX_TOOL_SPEED
 from robot.ur_arm import HOME_Q
 
-__all__ = ["Cell", "RobotMount", "Tool", "Shape", "Limits", "Clamp", "load_cell", "parse_cell", "pose_to_matrix",
+__all__ = ["Cell", "RobotMount", "Tool", "Shape", "Limits", "Clamp", "Jig", "load_cell", "parse_cell", "pose_to_matrix",
            "matrix_to_pose", "file_sha256", "SHAPE_KINDS"]
 
 SHAPE_KINDS = ("box", "cylinder", "capsule", "sphere")
@@ -109,6 +110,20 @@ class Clamp:
     obstacle: str = ""
 
 
+@dataclass(frozen=True, eq=False)
+class Jig:
+    """A jig that holds a face of the panel fixed in the cell (a vacuum pad or a clamp on a stand):
+    `name`, `pose` 4x4 in world (z out of the pad toward the panel), `footprint` (k, 2) polygon [m]
+    in the pose's xy plane that must lie on the face it holds, `obstacle` the obstacle that is the
+    jig's body (touching the held face by design; every arm and every other face must clear it)
+    or "". Which face it holds, and when, is the program's (PATH.json `holds.jigs`)."""
+
+    name: str
+    pose: np.ndarray
+    footprint: np.ndarray
+    obstacle: str = ""
+
+
 @dataclass(frozen=True)
 class Limits:
     """Motion limits: TCP speed [m/s] and acceleration [m/s^2], joint speeds [rad/s] (6), joint
@@ -140,6 +155,11 @@ class Cell:
     sha256: str = ""
     clamp: Clamp | None = None
     extra_arms: tuple[tuple[str, RobotMount], ...] = ()  # (name, arm) of further arms, same tool
+    jigs: tuple[Jig, ...] = ()
+
+    def jig(self, name: str) -> Jig | None:
+        """The jig called `name`, or None."""
+        return next((j for j in self.jigs if j.name == name), None)
 
     @property
     def arms(self) -> tuple[tuple[str, RobotMount], ...]:
@@ -296,18 +316,36 @@ def _extra_arm(r: _Reader) -> tuple[str, RobotMount]:
     return name, mount
 
 
-def _clamp(r: _Reader, obstacle_names: list[str]) -> Clamp:
-    pose = r.pose("pose")
+def _footprint(r: _Reader) -> np.ndarray:
     raw = r.raw("footprint")
     if not isinstance(raw, list) or len(raw) < 3 or not all(isinstance(p, list) and len(p) == 2 for p in raw):
         r.fail("footprint", "expected a polygon: a list of at least 3 [x, y] points (m)")
     fp = np.array([[_number(x, f"{r.key('footprint')}[{i}]", r.source, unit="m") for x in p]
                    for i, p in enumerate(raw)])
     if np.abs(fp).max() > 1.0:
-        r.fail("footprint", "a point is more than 1 m from the clamp pose (millimetres?)")
+        r.fail("footprint", "a point is more than 1 m from the pose (millimetres?)")
     area = 0.5 * float(np.sum(fp[:, 0] * np.roll(fp[:, 1], -1) - np.roll(fp[:, 0], -1) * fp[:, 1]))
     if abs(area) < 1e-8:
         r.fail("footprint", "the polygon has no area")
+    return fp
+
+
+def _jig(r: _Reader, obstacle_names: list[str]) -> Jig:
+    name = r.string("name")
+    if not name.isidentifier():
+        r.fail("name", f"{name!r} must be an identifier (PATH.json and CHECK.json name the jig by it)")
+    pose = r.pose("pose")
+    fp = _footprint(r)
+    obstacle = r.string("obstacle", required=False, default="")
+    if obstacle and obstacle not in obstacle_names:
+        r.fail("obstacle", f"{obstacle!r} is not one of the cell's obstacles")
+    r.done()
+    return Jig(name=name, pose=pose, footprint=fp, obstacle=obstacle)
+
+
+def _clamp(r: _Reader, obstacle_names: list[str]) -> Clamp:
+    pose = r.pose("pose")
+    fp = _footprint(r)
     obstacle = r.string("obstacle", required=False, default="")
     if obstacle and obstacle not in obstacle_names:
         r.fail("obstacle", f"{obstacle!r} is not one of the cell's obstacles")
@@ -351,6 +389,10 @@ def parse_cell(data: dict, source: str) -> Cell:
             raise InputError(f"obstacles[{i}].name: {n!r} is used twice", source=source)
     clamp = _clamp(top.table_("clamp"), names) if top.has("clamp") else None
     extra = tuple(_extra_arm(a) for a in top.tables("arms"))
+    jigs = tuple(_jig(j, names) for j in top.tables("jigs"))
+    for i, j in enumerate(jigs):
+        if j.name in [k.name for k in jigs[:i]]:
+            raise InputError(f"jigs[{i}].name: {j.name!r} is used twice", source=source)
     arm_names = ["a"] + [n for n, _ in extra]
     for i, n in enumerate(arm_names):
         if n in arm_names[:i]:
@@ -375,7 +417,7 @@ def parse_cell(data: dict, source: str) -> Cell:
                 tool=Tool(tcp=tcp, shapes=shapes, grip_output=grip, grip_output_kind=kind, cup_radius=cup,
                           pad=pad),
                 fixture=fixture, obstacles=obstacles, limits=limits, source=source, clamp=clamp,
-                extra_arms=extra, sha256=_data_sha256(data))
+                extra_arms=extra, jigs=jigs, sha256=_data_sha256(data))
 
 
 def _data_sha256(data: dict) -> str:

@@ -5,8 +5,10 @@ the FOLD file's polygon ids (`faces_fabkit:polygon`, the ids `grip.face` uses). 
 is the face that arm holds while it moves to waypoint i and on arrival there: the gripper output
 switches on after arriving at `grip` and off after arriving at `release`, so an arm holds its grip
 face on the moves into `fold` and `release` waypoints and nothing on the others. The clamped faces
-are held throughout. The record is an extra key of the document, so the whole-document hash covers
-it; `sim.check_holds` proves from it that the holds fix the panel in every state it moves through.
+are held throughout. A cell with jigs adds `"jigs": {jig: [face or null per waypoint]}` (the same
+shape as an arm's row: the face the jig holds on the move into waypoint i; `robot.jig_holds`). The
+record is an extra key of the document, so the whole-document hash covers it; `sim.check_holds`
+proves from it that the holds fix the panel in every state it moves through.
 """
 from __future__ import annotations
 
@@ -38,11 +40,14 @@ def holds_of(extra: dict, n_waypoints: int) -> dict | None:
         raise ValueError("holds: expected {clamped_faces: [face ids], arms: {arm: [face or null per waypoint]}}")
     if not all(face_ok(f) for f in h["clamped_faces"]):
         raise ValueError("holds.clamped_faces: expected face ids (integers >= 0)")
-    for arm, row in h["arms"].items():
-        if not isinstance(row, list) or len(row) != n_waypoints:
-            raise ValueError(f"holds.arms.{arm}: expected one entry per waypoint ({n_waypoints})")
-        if not all(f is None or face_ok(f) for f in row):
-            raise ValueError(f"holds.arms.{arm}: expected face ids or null")
+    if not isinstance(h.get("jigs", {}), dict):
+        raise ValueError("holds.jigs: expected {jig: [face or null per waypoint]}")
+    for key in ("arms", "jigs"):
+        for arm, row in h.get(key, {}).items():
+            if not isinstance(row, list) or len(row) != n_waypoints:
+                raise ValueError(f"holds.{key}.{arm}: expected one entry per waypoint ({n_waypoints})")
+            if not all(f is None or face_ok(f) for f in row):
+                raise ValueError(f"holds.{key}.{arm}: expected face ids or null")
     return h
 
 

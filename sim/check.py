@@ -255,10 +255,13 @@ def _with_panel_checks(report: CheckReport, tp, prog: Program, cell, model, fold
     from sim.check_holds import check_holds, clamp_problems
     from sim.check_panel_collisions import check_panel_collisions_of_fold
 
+    from sim.check_jigs import extend_holds
+
     holds = check_holds(tp, model, prog.states, source=str(fold_path))
+    holds, jig_holds, jig_problems = extend_holds(holds, model, cell, prog.states)  # jigs, what folds each crease
     panel = check_panel_collisions_of_fold(model, cell, prog.states, holds.record["clamped_faces"],
-                                           thickness=thickness)
-    problems = tuple(sorted(report.problems + holds.problems + panel.problems +
+                                           thickness=thickness, jig_holds=jig_holds)
+    problems = tuple(sorted(report.problems + holds.problems + panel.problems + jig_problems +
                             clamp_problems(model, cell, holds.record["clamped_faces"], len(tp)),
                             key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
     return replace(report, problems=problems, ok=not problems, holds=holds.record,

@@ -85,9 +85,10 @@ def check_holds(tp, fold_model, states, *, source: str | None = None) -> HoldsCh
         notes.append("the toolpath records no holds: derived from its grip face and the FOLD file's clamped face")
     clamped = tuple(int(f) for f in rec["clamped_faces"])
     arms = {str(a): list(row) for a, row in rec["arms"].items()}
-    held = [tuple(sorted(set(clamped) | {row[i] for row in arms.values() if row[i] is not None}))
+    jigs = {str(j): list(row) for j, row in rec.get("jigs", {}).items()}   # jig-held faces (robot.jig_holds)
+    held = [tuple(sorted(set(clamped) | {row[i] for row in (*arms.values(), *jigs.values()) if row[i] is not None}))
             for i in range(len(tp))]
-    out = {"ok": True, "clamped_faces": list(clamped), "arms": arms,
+    out = {"ok": True, "clamped_faces": list(clamped), "arms": arms, **({"jigs": jigs} if jigs else {}),
            "recorded": "holds" in tp.extra, "states": []}
     problems: list[Problem] = []
     try:
@@ -101,7 +102,7 @@ def check_holds(tp, fold_model, states, *, source: str | None = None) -> HoldsCh
     if len(positions) == len(angles) + 1:        # a flat key frame put first (fabkit.frames.fold_positions)
         angles = np.vstack([np.zeros_like(angles[:1]), angles])
     faces = set(int(f) for f in np.unique(model.tri_face))
-    for f in sorted(set(clamped) | {x for row in arms.values() for x in row if x is not None}):
+    for f in sorted(set(clamped) | {x for row in (*arms.values(), *jigs.values()) for x in row if x is not None}):
         if f not in faces:
             raise InputError(f"holds: face {f} is not a face of the panel", source=source)
     for f in clamped:

@@ -8,7 +8,10 @@ between states, sampled so no face corner moves more than 5 mm between samples. 
 and the faces that never move (they lie with it on the clamp, to 1 um in every state), against
 the obstacle carrying the cell's clamp (`[clamp] obstacle`) touch by design and are exempt; so is
 any face on the clamp's obstacle no deeper than the sheet thickness (the sheet lying on the post's
-top next to the clamped face: CHECK.json lists them as `resting_on_clamp`).
+top next to the clamped face: CHECK.json lists them as `resting_on_clamp`). A face a jig holds
+(`jig_holds`: {jig obstacle: [(face, (lowest, highest) held fold state), ...]}) against that
+jig's body, in the states it holds it and no deeper than the sheet, is exempt the same way
+(`resting_on_jig`); every other face against a jig's body is a collision.
 Each colliding pair is one problem (kind "panel_collision") naming the pair, the fold states and
 the worst depth, at the first waypoint whose move reaches that state. The tool and the arm against
 the panel are the arm check's (`sim.check_events`).
@@ -45,8 +48,16 @@ def _waypoint_of(states: np.ndarray, s: float) -> int:
     return int(hit[0]) if len(hit) else len(st) - 1
 
 
-def check_panel_collisions_of_fold(fold_model, cell, states, clamped_faces=(), *, thickness: float | None = None
-                                   ) -> PanelCheck:
+def _on_jig(c, jig_holds: dict, sheet: float) -> bool:
+    """Is contact `c` the jig-held face lying on its jig's body, in states the jig holds it?"""
+    if c.kind != "obstacle" or c.pair[1] not in jig_holds or c.depth_m > sheet + 1e-9:
+        return False
+    return any(c.pair[0] == f"face_{face}" and lo - 1e-9 <= c.state and c.last_state <= hi + 1e-9
+               for face, (lo, hi) in jig_holds[c.pair[1]])
+
+
+def check_panel_collisions_of_fold(fold_model, cell, states, clamped_faces=(), *, thickness: float | None = None,
+                                   jig_holds: dict | None = None) -> PanelCheck:
     """Panel collisions of a refold FOLD model (`faces_fabkit:polygon` groups triangles into faces)
     in `cell`; `states` the fractional fold state of every waypoint, `clamped_faces` polygon ids
     exempt against the clamp's obstacle."""
@@ -71,7 +82,8 @@ def check_panel_collisions_of_fold(fold_model, cell, states, clamped_faces=(), *
     sheet = DEFAULT_THICKNESS if thickness is None else thickness
     resting_on = [c for c in report.contacts if clamp_obstacle and c.kind == "obstacle"
                   and c.pair[1] == clamp_obstacle and c.depth_m <= sheet + 1e-9]
-    contacts = [c for c in report.contacts if c not in resting_on]
+    on_jig = [c for c in report.contacts if _on_jig(c, jig_holds or {}, sheet)]
+    contacts = [c for c in report.contacts if c not in resting_on and c not in on_jig]
     problems = []
     for c in contacts:
         where = f"fold state {c.state:g}" if c.state == c.last_state else f"fold states {c.state:g}-{c.last_state:g}"
@@ -85,5 +97,7 @@ def check_panel_collisions_of_fold(fold_model, cell, states, clamped_faces=(), *
               if clamp_obstacle and fixed else [],
               "contacts": [{"kind": c.kind, "pair": list(c.pair), "state": c.state, "last_state": c.last_state,
                             "depth_m": c.depth_m} for c in contacts],
-              "resting_on_clamp": [{"pair": list(c.pair), "depth_m": c.depth_m} for c in resting_on]}
+              "resting_on_clamp": [{"pair": list(c.pair), "depth_m": c.depth_m} for c in resting_on],
+              **({"resting_on_jig": [{"pair": list(c.pair), "state": c.state, "last_state": c.last_state,
+                                      "depth_m": c.depth_m} for c in on_jig]} if jig_holds else {})}
     return PanelCheck(not contacts, record, tuple(problems))

@@ -23,11 +23,15 @@ def checked_acceptor(cell, fold_file: str | Path, max_checks: dict | None = None
     """`accept(PlanResult) -> problem or None` for `plan_panel`: None when the candidate's toolpath
     passes the check in `cell` with the panel of `fold_file`, else its first problem (and after
     `max_checks[side]` checks on a grip side, default `MAX_CHECKS`, every further candidate on that
-    side is refused unchecked)."""
+    side is refused unchecked). A cell with jigs: the candidate is checked with the faces its jigs
+    hold (`robot.jig_holds`), as the toolpath is written."""
+    from fabkit.io.fold import load_fold
+    from robot.jig_holds import with_jig_holds
     from sim.check import check_toolpath
 
     budget = {**MAX_CHECKS, **(max_checks or {})}
     done: dict[str, list[int]] = {}
+    fold_model = load_fold(fold_file) if getattr(cell, "jigs", ()) else None
 
     def accept(res) -> str | None:
         side = str(res.toolpath.extra.get("grip", {}).get("side", "front"))
@@ -36,7 +40,8 @@ def checked_acceptor(cell, fold_file: str | Path, max_checks: dict | None = None
             return (f"not checked (the first {budget.get(side, 0)} candidates that planned on the {side} side "
                     "were checked)")
         checked.append(res.grip_face)
-        report = check_toolpath(res.toolpath, cell, fold=fold_file)
+        tp = res.toolpath if fold_model is None else with_jig_holds(res.toolpath, cell, fold_model)  # as written
+        report = check_toolpath(tp, cell, fold=fold_file)
         if report.ok:
             return None
         p = report.problems[0]

@@ -83,7 +83,9 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
                              variants=approach_variants(options))
         except (PlanningError, InputError) as exc:
             return {**out, "stage": "program", "reason": str(exc)}
-        tp = res.toolpath
+        from robot.jig_holds import with_jig_holds
+
+        tp = with_jig_holds(res.toolpath, cell, model)   # the faces the cell's jigs hold
         if compensated is not None:
             tp, loads = sheet_records(tp, sheet, design, compensated, cell, res.grip_face, tool_mass)
             out["loads"] = loads.summary()

@@ -17,7 +17,8 @@ from fabkit.errors import InputError
 from fabkit.io.atomic import atomic_path
 from sim.gl_backend import select_gl_backend
 
-__all__ = ["select_gl_backend", "render_frames", "write_png", "write_mp4", "camera_for_cell", "view"]
+__all__ = ["select_gl_backend", "render_frames", "write_png", "write_mp4", "camera_for_cell", "view", "project_points",
+           "set_arm_qpos"]
 
 
 def camera_for_cell(cell):
@@ -38,13 +39,52 @@ def camera_for_cell(cell):
     return cam
 
 
+def project_points(scene, points, width: int, height: int) -> np.ndarray:
+    """Pixel (column, row) of world points (P, 3) in a frame rendered from MuJoCo scene `scene`
+    (`renderer.scene` after `update_scene`): its two eye cameras averaged, as MuJoCo renders a mono
+    picture, and the frustum's half width set by the frame's aspect ratio, as its renderer sets it."""
+    cams = [scene.camera[0], scene.camera[1]]
+    pos = np.mean([np.asarray(c.pos, np.float64) for c in cams], axis=0)
+    fwd = np.mean([np.asarray(c.forward, np.float64) for c in cams], axis=0)
+    up = np.mean([np.asarray(c.up, np.float64) for c in cams], axis=0)
+    fwd, up = fwd / np.linalg.norm(fwd), up / np.linalg.norm(up)
+    glcam = cams[0]
+    right = np.cross(fwd, up)
+    v = np.asarray(points, np.float64).reshape(-1, 3) - pos
+    z = v @ fwd
+    near, bottom, top = float(glcam.frustum_near), float(glcam.frustum_bottom), float(glcam.frustum_top)
+    half = 0.5 * width / height * (top - bottom)
+    x = (v @ right) * near / z
+    y = (v @ up) * near / z
+    centre = float(np.mean([c.frustum_center for c in cams]))
+    col = (x - (centre - half)) / (2 * half) * width
+    row = (top - y) / (top - bottom) * height
+    return np.column_stack([col, row])
+
+
+def set_arm_qpos(model, cell, data, q) -> None:
+    """Joint positions of every arm in the model: `q` (6,) for the first arm (the others at their
+    `home`) or one row of every arm's joints (6 x arms) in the model's joint order."""
+    q = np.asarray(q, np.float64).ravel()
+    if len(q) == model.nq:
+        data.qpos[:] = q
+        return
+    data.qpos[:6] = q[:6]
+    homes = [np.asarray(m.home, np.float64) for _, m in getattr(cell, "extra_arms", ())]
+    for i, home in enumerate(homes[: (model.nq - 6) // 6]):
+        data.qpos[6 + 6 * i:12 + 6 * i] = home
+
+
 def render_frames(model, cell, configs, *, panel=None, states=None, width: int = 640, height: int = 480,
-                  highlight=(), camera=None):
-    """Yield RGB frames (height, width, 3) uint8 for joint configurations `configs` (k, 6), or
-    (k, 6 x arms) for a model with every arm of the cell.
+                  highlight=(), camera=None, face_colours=None, overlay=None, on_scene=None):
+    """Yield RGB frames (height, width, 3) uint8 for joint configurations `configs` (k, 6), or (k,
+    6 x arms) for a model with every arm (`set_arm_qpos`; a (k, 6) row puts the other arms at home).
 
     `states`: fold state per configuration (poses the panel's mocap pieces); `highlight`: geom
-    names drawn red (e.g. a collision pair; every piece of a split capsule).
+    names drawn red (e.g. a collision pair; every piece of a split capsule). `face_colours(k)` ->
+    {geom name: rgba} for frame k (the held faces, `sim.hold_colours`); every panel face not named
+    is drawn in the plain panel colour. `overlay(frame, k)` -> frame draws on the picture (a
+    legend); `on_scene(k, scene)` sees MuJoCo's scene of frame k (its camera, for `project_points`).
     """
     import mujoco
 
@@ -53,11 +93,18 @@ def render_frames(model, cell, configs, *, panel=None, states=None, width: int =
     rgba = model.geom_rgba.copy()
     try:
         from sim.arm import part_name
+        from sim.hold_colours import PLAIN_RGBA
 
+        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "" for g in range(model.ngeom)]
+        gid = {n: g for g, n in enumerate(names)}
+        faces = [g for g, n in enumerate(names) if n.startswith("face_")]
+        if face_colours is not None:
+            rgba[faces] = PLAIN_RGBA
         wanted = set(highlight)
-        for g in range(model.ngeom):
-            if part_name(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "") in wanted:
-                model.geom_rgba[g] = [0.9, 0.1, 0.1, 1.0]
+        red = [g for g, n in enumerate(names) if part_name(n) in wanted]
+        base = rgba.copy()
+        base[red] = [0.9, 0.1, 0.1, 1.0]
+        model.geom_rgba[:] = base
         data = mujoco.MjData(model)
         cam = camera or camera_for_cell(cell)
         try:
@@ -66,14 +113,22 @@ def render_frames(model, cell, configs, *, panel=None, states=None, width: int =
             raise InputError(f"cannot render offscreen with MUJOCO_GL={os.environ.get('MUJOCO_GL', '(unset)')}: "
                              f"{type(exc).__name__}: {exc}", source="--render") from None
         try:
-            for k, q in enumerate(np.asarray(configs, dtype=np.float64).reshape(-1, model.nq)):  # 6 per arm
-                data.qpos[:] = q
+            for k, q in enumerate(np.asarray(configs, dtype=np.float64).reshape(len(configs), -1)):
+                set_arm_qpos(model, cell, data, q)
                 if panel is not None:
                     s = 0.0 if states is None else float(states[k])
                     data.mocap_pos[:], data.mocap_quat[:] = panel.poses_at(s)
+                if face_colours is not None:
+                    model.geom_rgba[faces] = base[faces]
+                    for name, c in face_colours(k).items():
+                        if name in gid and gid[name] not in red:
+                            model.geom_rgba[gid[name]] = c
                 mujoco.mj_forward(model, data)
                 renderer.update_scene(data, camera=cam)
-                yield renderer.render().copy()
+                if on_scene is not None:
+                    on_scene(k, renderer.scene)
+                frame = renderer.render().copy()
+                yield frame if overlay is None else overlay(frame, k)
         finally:
             renderer.close()
     finally:

@@ -226,6 +226,9 @@ def write_report_html(out: Path, summary: dict) -> Path:
 
     toolpath_doc = first("toolpath").get("report") or {}
     parts.append(sheet_section(path_json or (toolpath_doc if "waypoints" in toolpath_doc else {}), check_json))
+    from fabkit.report.holds import holds_section
+
+    parts.append(holds_section(check_json if "holds" in check_json else _read_json(out / "check.json")))
     parts.append("<h2>Numbers per stage</h2>")
     for s in stages:
         table = _numbers_table(s.get("report") or {})
