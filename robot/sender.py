@@ -367,6 +367,8 @@ def send_toolpath(toolpath, check, cell, settings: SendSettings, *, fold: str | 
     n = len(toolpath)
     if not 0 <= settings.resume_from < n:
         raise SendError(f"--resume-from {settings.resume_from}: the toolpath has waypoints 0-{n - 1}")
+    if not hasattr(toolpath, "arms") and settings.hosts:
+        raise SendError(f"--host: a one-arm program goes to one controller, got {1 + len(settings.hosts)} addresses")
     if hasattr(toolpath, "arms") and settings.resume_from != 0:
         raise SendError("--resume-from: a program for several arms starts at waypoint 0 (every arm at its start)")
     cleared = clear_for_send(toolpath, check, cell, fold=fold, base_dir=base_dir)
