@@ -34,77 +34,26 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from robot.interlock import Cleared, StartTolerances, clear_for_send
+from robot.interlock import Cleared, clear_for_send
 from robot.path_chunks import (MAX_BLEND, MAX_JOINT_ACCEL, MAX_JOINT_SPEED, MAX_TOOL_ACCEL, MAX_TOOL_SPEED,
                                SendError, chunk_entries, point_segment_distance, point_segment_distance_nd,
                                pose_distance, printed, validate_waypoints)
 from robot.preflight import ControllerFault, dashboard_stop, prepare_controller, read_only_preflight
 from robot.rtde_worker import CallError, RTDEWorker, WorkerError
+from robot.send_settings import SendResult, SendSettings
 from robot.send_tool import ToolControl
 
-__all__ = ["SendSettings", "SendResult", "SendError", "send_toolpath", "ArmSender", "dashboard_stop", "validate_waypoints",
-           "printed", "chunk_entries", "pose_distance", "point_segment_distance", "point_segment_distance_nd",
+__all__ = ["SendSettings", "SendResult", "SendError", "send_toolpath", "ArmSender", "dashboard_stop",
+           "validate_waypoints", "printed", "chunk_entries", "pose_distance", "point_segment_distance", "point_segment_distance_nd",
            "MAX_JOINT_SPEED", "MAX_JOINT_ACCEL", "MAX_TOOL_SPEED", "MAX_TOOL_ACCEL", "MAX_BLEND"]
 
 RUNTIME_PLAYING = 2
 PROTECTIVE_BIT, ESTOP_BIT = 1 << 2, 1 << 7
-
-
-@dataclass(frozen=True)
-class SendSettings:
-    """How to send. Times in seconds; tolerances in metres and radians; `watchdog_hz`: the RTDE
-    watchdog's minimum kick rate while the control script runs (0 = off, not recommended)."""
-
-    host: str
-    chunk: int = 50
-    resume_from: int = 0
-    power_on: bool = False
-    unlock: bool = False
-    monitor_hz: float = 125.0
-    poll_s: float = 0.02
-    stall_s: float = 0.5
-    call_timeout_s: float = 10.0
-    connect_timeout_s: float = 20.0
-    stop_decel: float = 2.0
-    final_tol_m: float = 2e-4
-    final_tol_rad: float = 2e-3
-    start: StartTolerances = StartTolerances()
-    watchdog_hz: float = 4.0
-    rt_priority: int = -1
-    connect_retry_s: float = 3.0  # keep trying the dashboard this long (a controller still starting)
-    hosts: tuple = ()  # a program for several arms: the controllers of the arms after the first (`host`)
-
-
-@dataclass
-class SendResult:
-    """What happened: `ok`, `last_completed` (index of the last waypoint reached, -1 for none),
-    `reason` (None when ok), the toolpath hash sent, and measurements (`recheck_s`: the check
-    run again before sending)."""
-
-    ok: bool
-    last_completed: int
-    total: int
-    reason: str | None = None
-    toolpath_sha256: str = ""
-    chunks_sent: int = 0
-    elapsed_s: float = 0.0
-    recheck_s: float = 0.0
-    final_error_m: float | None = None
-    final_error_rad: float | None = None
-    quantisation_m: float = 0.0
-    quantisation_rad: float = 0.0
-    blend_reduction_m: float = 0.0
-    controller: str | None = None
-    events: list = field(default_factory=list)
-
-    def to_json(self) -> dict:
-        return {k: v for k, v in self.__dict__.items()}
 
 
 _Fault = ControllerFault
@@ -418,6 +367,8 @@ def send_toolpath(toolpath, check, cell, settings: SendSettings, *, fold: str | 
     n = len(toolpath)
     if not 0 <= settings.resume_from < n:
         raise SendError(f"--resume-from {settings.resume_from}: the toolpath has waypoints 0-{n - 1}")
+    if not hasattr(toolpath, "arms") and settings.hosts:
+        raise SendError(f"--host: a one-arm program goes to one controller, got {1 + len(settings.hosts)} addresses")
     if hasattr(toolpath, "arms") and settings.resume_from != 0:
         raise SendError("--resume-from: a program for several arms starts at waypoint 0 (every arm at its start)")
     cleared = clear_for_send(toolpath, check, cell, fold=fold, base_dir=base_dir)

@@ -191,7 +191,7 @@ def plan_two_arms(cell, fold_model, frames, *, options: PlanOptions = PlanOption
     `fold_model` in `cell` (already placed: `robot.panel_placement`). `grip_faces` (two faces)
     fixes the pair; `accept(result) -> problem or None` (the checker) is asked for each pair that
     plans, and the first it passes wins (else the first that planned). Raises `PlanningError` when
-    no pair plans, `InputError` when no pair of faces holds the panel or the cell has not two arms."""
+    no pair of faces holds the panel or none plans, `InputError` when the cell has not two arms."""
     names = arm_names(cell)
     if len(names) != 2:
         raise InputError(f"a two-arm program needs a cell with two arms, {cell.name!r} has {len(names)}",
@@ -201,8 +201,8 @@ def plan_two_arms(cell, fold_model, frames, *, options: PlanOptions = PlanOption
     pairs = [tuple(int(f) for f in grip_faces)] if grip_faces is not None else \
         hold_pairs(fold_model, frames, clamped, source=fold_source_name)
     if not pairs:
-        raise InputError(f"no two middle-row faces hold the panel with the clamped faces {list(clamped)} "
-                         "(every crease must be folded by something held)", source=fold_source_name)
+        raise PlanningError(0, "grip", 0, "holds", f"no two middle-row faces hold the panel with the clamped faces "
+                            f"{list(clamped)} (every crease must be folded by something held)")
     tried, refused, errors = [], None, []
     for pair in pairs:
         for grips in _assignments(cell, frames, pair):

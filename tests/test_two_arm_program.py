@@ -113,7 +113,8 @@ def test_check_passes_with_both_grips_and_the_clamp(middle):
     assert set(d["arms"]) == {"a", "b"} and all(a["ok"] for a in d["arms"].values())
     assert d["lockstep"]["max_mismatch_s"] < 1e-6 and d["lockstep"]["arm_arm_min_distance_m"] is None
     holds = d["holds"]
-    assert holds["ok"] and holds["states"] and all(s["ok"] and (s["flat"] or s["nullity"] == 0) for s in holds["states"])
+    assert holds["ok"] and holds["states"]
+    assert all(s["ok"] and (s["flat"] or s["nullity"] == 0) for s in holds["states"])
     assert all(set(s["held_faces"]) == {4, 28, 36} for s in holds["states"])
     # states and the points between them are proven
     assert any(s["state"] % 1 for s in holds["states"])
@@ -218,3 +219,24 @@ def test_renders_draw_both_arms(middle, tmp_path):
     np.testing.assert_allclose(run.dense.q[-1, 6:], atp.arm("b").waypoints[-1].q, atol=1e-9)
     out = render_waypoint(run, cell, tmp_path / "both.png", size=(160, 120))
     assert (tmp_path / "both.png").stat().st_size > 0 and out["waypoint"] > 0
+
+
+def test_a_panel_two_arms_cannot_hold_is_a_planning_failure(tmp_path):
+    """One crease: the clamp takes one strip, only one middle-row face moves; no pair of faces."""
+    import fabkit.pipeline as fk
+    from robot.planner import PlanningError
+
+    flat = fk.unfold(fk.relax(fk.generate("reflect", creases=1)))
+    folds = fk.refold(flat, frames=3)
+    fold_file = folds.save(tmp_path / "one.fold")
+    with pytest.raises(PlanningError, match="holds: no two middle-row faces hold the panel"):
+        _plan(fold_file)
+
+
+def test_a_one_arm_program_goes_to_one_controller(tmp_path):
+    from robot.sender import SendError, SendSettings, send_toolpath
+    from tests._ursim import CELL, check_report, demo_toolpath
+
+    tp = demo_toolpath(n_fold=6)
+    with pytest.raises(SendError, match="one-arm program goes to one controller, got 2"):
+        send_toolpath(tp, check_report(tp), load_cell(CELL), SendSettings(host="127.0.0.1", hosts=("127.0.0.2",)))
