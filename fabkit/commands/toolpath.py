@@ -117,7 +117,7 @@ def run(args) -> int:
     write_report(args, program.report(args.output, args.script))
     checks = tp.extra["checks"]
     say(args, f"{args.output}: {len(tp)} waypoints for {cell.model.name} in {cell.name}, grip face {res.grip_face}"
-              f"{'' if tp.extra['grip'].get('side', 'front') == 'front' else ' (back side)'} "
+              f"{' (back side)' if tp.extra.get('grip', {}).get('side') == 'back' else ''} "
               f"({res.branch}), cycle time ~{res.cycle_time:.1f} s, largest fold step "
               f"{math.degrees(checks['max_fold_joint_step_rad']):.2f} deg, sha256 {tp.sha256[:12]}")
     if args.script:
