@@ -359,7 +359,7 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
                   "movel": "v m/s, a m/s^2", "movej": "v rad/s, a rad/s^2", "r": "m"},
         "grip": {"output": cell.tool.grip_output, "kind": cell.tool.grip_output_kind,
                  "grip_dwell_s": p.grip_dwell, "release_dwell_s": p.release_dwell, "face": int(grip_face),
-                 "side": opt.grip_side},
+                 **({"side": opt.grip_side} if opt.grip_side != "front" else {})},  # absent: the front
         "cycle_time_s": ct.total,
         "holds": holds_record(ops, grip_face, clamped_faces),
         **({"placement": placement} if placement is not None else {}),

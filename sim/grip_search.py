@@ -16,7 +16,7 @@ from pathlib import Path
 __all__ = ["checked_acceptor", "MAX_CHECKS"]
 
 #: Candidates checked at most per plan and grip side.
-MAX_CHECKS = {"front": 4, "back": 2}
+MAX_CHECKS = {"front": 4, "back": 1}
 
 
 def checked_acceptor(cell, fold_file: str | Path, max_checks: dict | None = None):

@@ -170,7 +170,7 @@ def _through_every_stage(d, src, cell):
     for cmd in steps:
         assert main([*cmd, "-q"]) == 0, cmd[0]
     path = json.loads((d / "path.json").read_text())
-    return (path["holds"]["clamped_faces"], path["grip"]["face"], path["grip"]["side"],
+    return (path["holds"]["clamped_faces"], path["grip"]["face"], path["grip"].get("side", "front"),
             np.array([w["q"] for w in path["waypoints"]]), json.loads((d / "check.json").read_text())["ok"])
 
 

@@ -45,14 +45,12 @@ def _cell(pad_toml: str):
     return parse_cell(data, source="pad.toml")
 
 
-def test_the_shipped_cells_declare_the_cup_they_model():
+def test_a_cell_without_a_pad_holds_with_its_suction_cup():
     from robot.cell import load_cell
-    from robot.loads import cup_of_cell
 
-    for name in ("ur5e_bench", "ur10e_fold_table"):
-        cell = load_cell(CELLS / f"{name}.toml")
-        pad = pad_of_cell(cell)
-        assert pad.count == 1 and pad.diameter == cup_of_cell(cell).diameter   # the suction_cup shape's
+    for name, d in (("ur5e_bench", 0.05), ("ur10e_fold_table", 0.06)):
+        pad = pad_of_cell(load_cell(CELLS / f"{name}.toml"))
+        assert pad.count == 1 and pad.diameter == pytest.approx(d) and pad.footprint_radius == pytest.approx(d / 2)
 
 
 def test_cell_pad_table_and_its_mistakes():
