@@ -91,7 +91,8 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
             out["loads"] = loads.summary()
         out.update(toolpath=tp.to_json(), grip_face=int(res.grip_face), cycle_time_s=float(res.cycle_time))
         # the check `fabkit check` runs: arm, panel, holds, the panel's own collisions, the sheet's loads
-        report = run_toolpath_check(tp, cell, fold=path, thickness=None if compensated is not None else thickness).report
+        pieces = None if compensated is not None else thickness  # with a sheet: the sheet's thickness
+        report = run_toolpath_check(tp, cell, fold=path, thickness=pieces).report
         # the report names the FOLD file it checked: the panel's own name, not this temporary copy
         check = json.loads(json.dumps(report.to_json()).replace(json.dumps(str(path))[1:-1], fold_name))
     out["check"] = check
