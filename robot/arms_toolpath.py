@@ -176,13 +176,7 @@ class ArmsToolpath:
             fail("sha256 does not match the document (the file was edited after planning)")
         return out
 
-    def save(self, path: str | Path) -> None:
-        """Write PATH.json atomically."""
-        from fabkit.io.atomic import atomic_write
-
-        with atomic_write(path) as fh:
-            json.dump(self.to_json(), fh, indent=1, allow_nan=False)
-            fh.write("\n")
+    save = Toolpath.save  # PATH.json written atomically, as a one-arm toolpath is
 
 
 def toolpath_from_json(d: Any, source: str | None = None):

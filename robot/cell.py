@@ -334,23 +334,22 @@ def _jig(r: _Reader, obstacle_names: list[str]) -> Jig:
     name = r.string("name")
     if not name.isidentifier():
         r.fail("name", f"{name!r} must be an identifier (PATH.json and CHECK.json name the jig by it)")
-    pose = r.pose("pose")
-    fp = _footprint(r)
-    obstacle = r.string("obstacle", required=False, default="")
-    if obstacle and obstacle not in obstacle_names:
-        r.fail("obstacle", f"{obstacle!r} is not one of the cell's obstacles")
-    r.done()
-    return Jig(name=name, pose=pose, footprint=fp, obstacle=obstacle)
+    return Jig(name=name, **_holding_pad(r, obstacle_names))
 
 
 def _clamp(r: _Reader, obstacle_names: list[str]) -> Clamp:
+    return Clamp(**_holding_pad(r, obstacle_names))
+
+
+def _holding_pad(r: _Reader, obstacle_names: list[str]) -> dict:
+    """The keys a clamp and a jig share: `pose`, `footprint` and the `obstacle` that is its body."""
     pose = r.pose("pose")
     fp = _footprint(r)
     obstacle = r.string("obstacle", required=False, default="")
     if obstacle and obstacle not in obstacle_names:
         r.fail("obstacle", f"{obstacle!r} is not one of the cell's obstacles")
     r.done()
-    return Clamp(pose=pose, footprint=fp, obstacle=obstacle)
+    return {"pose": pose, "footprint": fp, "obstacle": obstacle}
 
 
 def parse_cell(data: dict, source: str) -> Cell:
