@@ -30,7 +30,7 @@ from typing import Any
 
 from fabkit.errors import InputError
 from fabkit.io.jsonfile import load_json
-from robot.toolpath import FORMAT as ONE_ARM_FORMAT, OLD_FORMATS, Toolpath, document_sha256
+from robot.toolpath import FORMAT as ONE_ARM_FORMAT, OLD_FORMATS, Toolpath, document_sha256, finish_document
 
 __all__ = ["FORMAT", "ArmsToolpath", "load_toolpath", "toolpath_from_json"]
 
@@ -105,11 +105,7 @@ class ArmsToolpath:
             arms.append(entry)
         d = {"format": FORMAT, "cell": self.cell, "cell_sha256": self.cell_sha256,
              "source": copy.deepcopy(self.source), "arms": arms, "sync": list(self.sync)}
-        for k, v in self.extra.items():
-            d.setdefault(k, copy.deepcopy(v))
-        if with_hash:
-            d["sha256"] = document_sha256(d)
-        return d
+        return finish_document(d, self.extra, with_hash)
 
     @classmethod
     def build(cls, cell: str, cell_sha256: str, source: dict, arms, sync, extra: dict) -> "ArmsToolpath":

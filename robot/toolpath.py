@@ -58,6 +58,16 @@ def canonical_json(doc: dict) -> str:
     return json.dumps(doc, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
+def finish_document(d: dict, extra: dict, with_hash: bool) -> dict:
+    """`d` (a PATH.json document's own keys) with the `extra` records added (copies; `d`'s keys
+    win) and, `with_hash`, its whole-document sha256."""
+    for k, v in extra.items():
+        d.setdefault(k, copy.deepcopy(v))
+    if with_hash:
+        d["sha256"] = document_sha256(d)
+    return d
+
+
 def document_sha256(doc: dict) -> str:
     """sha256 of a PATH.json document without its `sha256` key."""
     body = {k: v for k, v in doc.items() if k != "sha256"}
@@ -161,11 +171,7 @@ class Toolpath:
         d = {"format": FORMAT, "robot": self.robot, "cell": self.cell, "cell_sha256": self.cell_sha256,
              "tcp": list(self.tcp), "source": copy.deepcopy(self.source),
              "waypoints": [w.to_json() for w in self.waypoints]}
-        for k, v in self.extra.items():
-            d.setdefault(k, copy.deepcopy(v))
-        if with_hash:
-            d["sha256"] = document_sha256(d)
-        return d
+        return finish_document(d, self.extra, with_hash)
 
     @classmethod
     def from_json(cls, d: Any, source: str | None = None) -> "Toolpath":
