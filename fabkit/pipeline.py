@@ -294,21 +294,23 @@ def render(checked: Checked, path: str | os.PathLike, *, waypoint: int | None = 
 
 
 def send(program: Program, report: Checked, *, host: str, power_on: bool = False, unlock: bool = False,
-         resume_from: int = 0, chunk: int = 50, stall: float = 0.5, log=None, on_progress=None) -> Sent:
+         resume_from: int = 0, chunk: int = 50, stall: float = 0.5, log=None, on_progress=None, hosts=()) -> Sent:
     """Send `program` to the UR controller at `host` over RTDE (`fabkit send`), through
     `robot.sender.send_toolpath`: it refuses, before any connection, unless `report` passed for this
     very toolpath, cell file and FOLD file, and runs the check again on what it sends. Refusals
     raise (`robot.interlock.CheckFailedError` for a failed check, `InterlockError`, `SendError`);
-    once the controller was contacted the result says how far it got (`Sent.result.last_completed`)."""
+    once the controller was contacted the result says how far it got (`Sent.result.last_completed`).
+    A two-arm program goes to `host` (arm a) and `hosts` (the further arms), in lockstep."""
     from robot.send_options import send_option_problem
     from robot.sender import SendSettings, send_toolpath
 
     _require_ok(program, "send")
-    problem = send_option_problem(host, chunk, stall)
-    if problem is not None:
-        raise InputError(problem[1], source=problem[0])
+    for each in (host, *hosts):
+        problem = send_option_problem(each, chunk, stall)
+        if problem is not None:
+            raise InputError(problem[1], source=problem[0])
     settings = SendSettings(host=host, chunk=chunk, resume_from=resume_from, power_on=power_on, unlock=unlock,
-                            stall_s=stall)
+                            stall_s=stall, hosts=tuple(hosts))
     result = send_toolpath(program.toolpath, report.report, program.cell, settings, base_dir=program.workdir,
                            log=log, on_progress=on_progress)
     problems = () if result.ok else (f"stopped: {result.reason}; last completed waypoint {result.last_completed} "

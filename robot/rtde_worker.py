@@ -16,7 +16,9 @@ Watchdog: every move is commanded with the controller's RTDE watchdog armed
 and the worker kicks it before answering each request. The parent polls the state every few tens
 of milliseconds while the arm moves, so the kicks stop — and the controller stops the program and
 the arm within 1 / watchdog_hz — when the parent dies or hangs, the worker dies or hangs, or the
-link drops.
+link drops. When the parent dies, the kernel also sends the worker SIGTERM (PR_SET_PDEATHSIG), and
+the worker stops the arm itself (`stopL`, then `stopScript`) before it exits: that covers a death
+between a `movePath` upload and the watchdog's re-arming.
 
 Requests are `(seq, method, args)`, replies `(seq, "ok", result)` or `(seq, "error", text, trace)`;
 the worker's methods are the `_Channels` methods below.
@@ -38,6 +40,10 @@ MONITOR_VARIABLES = ["timestamp", "actual_q", "actual_TCP_pose", "runtime_state"
                      "safety_status_bits", "actual_digital_output_bits"]
 #: Added when the toolpath declares a payload (controllers since 5.5.1).
 PAYLOAD_VARIABLES = ["payload", "payload_cog"]
+
+
+#: Seconds the worker may spend stopping the arm when its parent died before it exits regardless.
+HALT_TIMEOUT_S = 3
 
 
 class WorkerError(Exception):
@@ -169,6 +175,22 @@ class _Channels:
         self.ctrl.stopScript()
         return True
 
+    def halt(self) -> None:
+        """Stop the arm because the worker is about to exit without its parent: decelerate, then
+        end the control script. The watchdog alone is not enough: `movePath` re-uploads the script,
+        and a parent that dies between the upload and `setWatchdog` leaves a path running with no
+        watchdog armed. Bounded: SIGALRM (default action: terminate) ends a call that hangs."""
+        import signal
+
+        if self.ctrl is None:
+            return
+        signal.alarm(HALT_TIMEOUT_S)
+        for stop in (lambda: self.ctrl.stopL(2.0, False), self.ctrl.stopScript):
+            try:
+                stop()
+            except Exception:  # the link may be gone as well: the controller's watchdog then stops it
+                pass
+
     def disconnect(self) -> bool:
         self.watchdog_hz = 0.0
         for obj in (self.ctrl, self.io, self.recv, self.dash):
@@ -188,21 +210,27 @@ def serve(fd: int, host: str) -> None:
 
     from fabkit.lifeline import die_with_parent
 
-    die_with_parent(os.getppid())  # never outlive the sender, even on kill -9
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
     conn = Connection(fd)
     ch = _Channels(host)
+
+    def parent_gone(*_):
+        ch.halt()
+        os._exit(0)
+
+    signal.signal(signal.SIGTERM, parent_gone)
+    die_with_parent(os.getppid(), signal.SIGTERM)  # never outlive the sender, even on kill -9: stop, then exit
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     while True:
         try:
             seq, method, args = conn.recv()
         except (EOFError, OSError):
-            os._exit(0)  # the parent is gone: no more kicks, the controller's watchdog stops the arm
+            parent_gone()  # the parent is gone: no more kicks; stop the arm rather than wait for the watchdog
         try:
             ch.kick()
             result = getattr(ch, method)(*args)
             conn.send((seq, "ok", result))
         except (EOFError, OSError, BrokenPipeError):
-            os._exit(0)
+            parent_gone()
         except Exception as exc:  # ur_rtde errors go back to the parent as CallError
             conn.send((seq, "error", f"{type(exc).__name__}: {exc}", traceback.format_exc(limit=2)))
 

@@ -132,7 +132,8 @@ def _seconds_to_idle(standin, t0, limit=3.0) -> float:
 
 @pytest.mark.slow
 def test_killing_the_sender_stops_both_arms(job, standins, tmp_path):
-    """`kill -9` of `fabkit send` while arm a folds: each controller's RTDE watchdog stops its arm."""
+    """`kill -9` of `fabkit send` while arm a folds: each arm stops (its worker, orphaned, stops it; else its
+    controller's RTDE watchdog)."""
     import os
     import signal
 
@@ -156,5 +157,6 @@ def test_killing_the_sender_stops_both_arms(job, standins, tmp_path):
         proc.wait(timeout=10)
     print(f"kill -9 send: arms idle after {dt}")
     assert max(dt.values()) <= 0.5, dt
-    for s in standins.values():
-        assert "RTDE watchdog" in "\n".join(s.state()["log_tail"])
+    for s in standins.values():  # each arm's watchdog, or its orphaned worker stopping it before it exits
+        tail = "\n".join(s.state()["log_tail"])
+        assert "RTDE watchdog" in tail or "stop script" in tail, tail
