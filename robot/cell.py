@@ -14,6 +14,9 @@ controller's base frame) in the cell/world frame; `tool.tcp` and `tool.shapes` a
 (tool0) frame; `fixture.pose` maps the panel frame (where the fold states live; the clamped face
 sits there) to world; obstacles are in world. Shape sizes follow MuJoCo: box = half extents
 (hx, hy, hz), cylinder/capsule = (radius, half_length) along the shape's local z, sphere = (radius,).
+
+One module of ~470 lines on purpose: it is one file format, its frozen records and the reader
+that validates each of their keys; split apart, a key's record and its validation would drift.
 """
 from __future__ import annotations
 

@@ -5,7 +5,7 @@ clamping the first strip); `approach_variants`: other approach/retract distances
 does not plan or pass at the given one; `grip_variants`: those on the front side, then the back
 side (the cup's approach axis along +normal instead of -normal, its standoff measured behind the
 design surface: a valley folded to 175 deg closes the wing over a cup on the front).
-`robot.planner.plan_panel` tries every face on the front side before any on the back, and with the
+`plan_panel` tries every face on the front side before any on the back, and with the
 checker (`sim.grip_search`) takes the first whose program passes the check, so a panel whose front
 grip passes keeps exactly the program it had.
 
@@ -21,7 +21,7 @@ import numpy as np
 
 from fabkit.errors import InputError
 
-__all__ = ["grip_order", "approach_variants", "grip_variants", "GRIP_SIDES"]
+__all__ = ["grip_order", "approach_variants", "grip_variants", "plan_panel", "GRIP_SIDES"]
 
 #: The sides a cup can grip, in the order they are tried.
 GRIP_SIDES = ("front", "back")
@@ -70,3 +70,47 @@ def grip_order(frames, grip_face: int | None = None) -> list[int]:
     motion = np.linalg.norm(C - C[0], axis=-1).max(axis=0) + 1e-6 * turn
     moving = [faces[k] for k in np.argsort(-motion, kind="stable") if motion[k] > 1e-9]
     return moving or faces
+
+
+def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, source: dict | None = None,
+               clamped_faces=(), placement: dict | None = None, accept=None, variants=None):
+    """Plan for a panel's middle-row frames (`fabkit.frames.FaceFrames`) in `cell` with
+    `robot.planner.plan_toolpath`, trying grip faces and `PlanOptions` -> `robot.planner.PlanResult`.
+
+    With `grip_face` None the face is chosen automatically: faces that move (not the clamped
+    strip) are tried from the largest motion down (`grip_order`) and the first that plans is used,
+    or with `accept(PlanResult) -> problem or None` (the checker: `sim.grip_search`) the first that
+    plans and that `accept` passes; when `accept` refuses every face that plans, the first of them
+    is returned (its check will say why). `variants`: further `PlanOptions` tried for each face
+    after `options` (e.g. `robot.grip_choice.grip_variants`), in order; variants gripping another side
+    (`grip_side`) are tried after every face on the first side. Raises `InputError` for a grip face not
+    in the middle row, `PlanningError` when no face plans (the error of the face that got farthest).
+    """
+    from robot.planner import PlanningError, PlanOptions, plan_toolpath  # it imports this module
+
+    options = options or PlanOptions()
+    order = grip_order(frames, grip_face)
+    tried, refused = [], None
+    every = (options, *(variants or ()))
+    sides = [[o for o in every if o.grip_side == side] for side in dict.fromkeys(o.grip_side for o in every)]
+    for face, opt in ((f, o) for group in sides for f in order for o in group):  # every face's front first
+        try:
+            res = plan_toolpath(cell, frames.of_face(face), options=opt,
+                                source={**(source or {}), "grip_face": face}, grip_face=face,
+                                clamped_faces=clamped_faces, placement=placement)
+        except PlanningError as exc:
+            tried.append((face, exc))
+            continue
+        problem = accept(res) if accept is not None and grip_face is None else None
+        if problem is None:
+            return replace(res, tried=tuple(tried))
+        tried.append((face, problem))
+        refused = refused or res
+    if refused is not None:
+        return replace(refused, tried=tuple(tried))
+    tried = [(f, e) for f, e in tried if isinstance(e, PlanningError)]
+    first = max(tried, key=lambda fe: fe[1].waypoint)[1] if len(tried) > 1 else tried[0][1]
+    if len(tried) > 1:
+        raise PlanningError(first.waypoint, first.op, first.state, first.kind,
+                            f"{first.detail} (no middle-row face works: tried {[f for f, _ in tried]})")
+    raise first

@@ -2,7 +2,7 @@
 
 `plan_in_cell` is what `fabkit toolpath` and `fabkit.pipeline.plan` call. It puts the FOLD file's
 clamped face on the cell's clamp (`robot.panel_placement`), records the clamped faces, and plans
-with `robot.planner.plan_panel` for a one-arm cell (PATH.json `fabkit.toolpath/2`) or with
+with `robot.grip_choice.plan_panel` for a one-arm cell (PATH.json `fabkit.toolpath/2`) or with
 `robot.two_arm_planner.plan_two_arms` for a cell with two arms (`fabkit.toolpath/3`).
 """
 from __future__ import annotations
@@ -22,7 +22,8 @@ def plan_in_cell(cell, fold_model, frames, *, grip_face: int | None = None, opti
     `robot.two_arm_planner.ArmsPlanResult`; raises `robot.planner.PlanningError`."""
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
-    from robot.planner import PlanOptions, plan_panel
+    from robot.grip_choice import plan_panel
+    from robot.planner import PlanOptions
 
     options = options or PlanOptions()
     placement = placement_for(cell, fold_model)   # the clamped face on the cell's clamp

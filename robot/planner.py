@@ -38,7 +38,7 @@ from robot.grip_choice import approach_variants, grip_order
 from robot.holds_record import holds_record
 from robot.toolpath import Toolpath, Waypoint
 
-__all__ = ["PlanOptions", "PlanningError", "PlanResult", "grip_offset", "tcp_targets", "plan_toolpath", "plan_panel",
+__all__ = ["PlanOptions", "PlanningError", "PlanResult", "grip_offset", "tcp_targets", "plan_toolpath",
            "grip_order", "approach_variants", "check_toolpath_kinematics"]
 
 
@@ -371,47 +371,6 @@ def _finish(cell: Cell, targets: list[_Target], opt: PlanOptions, source: dict, 
                   source=source, waypoints=tuple(waypoints), extra=extra, cell_sha256=cell.sha256)
     return PlanResult(toolpath=tp, grip_face=int(grip_face), branch=branch, max_joint_step=max_fold_step,
                       joint_speed_ratio=ratio, min_singularity=min_sing, cycle_time=ct.total)
-
-
-def plan_panel(cell: Cell, frames, *, grip_face: int | None = None, options: PlanOptions = PlanOptions(),
-               source: dict | None = None, clamped_faces=(), placement: dict | None = None,
-               accept=None, variants=None) -> PlanResult:
-    """Plan for a panel's middle-row frames (`fabkit.frames.FaceFrames`).
-
-    With `grip_face` None the face is chosen automatically: faces that move (not the clamped
-    strip) are tried from the largest motion down (`grip_order`) and the first that plans is used,
-    or with `accept(PlanResult) -> problem or None` (the checker: `sim.grip_search`) the first that
-    plans and that `accept` passes; when `accept` refuses every face that plans, the first of them
-    is returned (its check will say why). `variants`: further `PlanOptions` tried for each face
-    after `options` (e.g. `robot.grip_choice.grip_variants`), in order; variants gripping another side
-    (`grip_side`) are tried after every face on the first side. Raises `InputError` for a grip face not
-    in the middle row, `PlanningError` when no face plans (the error of the face that got farthest).
-    """
-    order = grip_order(frames, grip_face)
-    tried, refused = [], None
-    every = (options, *(variants or ()))
-    sides = [[o for o in every if o.grip_side == side] for side in dict.fromkeys(o.grip_side for o in every)]
-    for face, opt in ((f, o) for group in sides for f in order for o in group):  # every face's front first
-        try:
-            res = plan_toolpath(cell, frames.of_face(face), options=opt,
-                                source={**(source or {}), "grip_face": face}, grip_face=face,
-                                clamped_faces=clamped_faces, placement=placement)
-        except PlanningError as exc:
-            tried.append((face, exc))
-            continue
-        problem = accept(res) if accept is not None and grip_face is None else None
-        if problem is None:
-            return replace(res, tried=tuple(tried))
-        tried.append((face, problem))
-        refused = refused or res
-    if refused is not None:
-        return replace(refused, tried=tuple(tried))
-    tried = [(f, e) for f, e in tried if isinstance(e, PlanningError)]
-    first = max(tried, key=lambda fe: fe[1].waypoint)[1] if len(tried) > 1 else tried[0][1]
-    if len(tried) > 1:
-        raise PlanningError(first.waypoint, first.op, first.state, first.kind,
-                            f"{first.detail} (no middle-row face works: tried {[f for f, _ in tried]})")
-    raise first
 
 
 def check_toolpath_kinematics(tp: Toolpath, tcp=None) -> dict:

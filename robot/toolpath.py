@@ -285,10 +285,11 @@ _PLANNER_NAMES = ("PlanOptions", "PlanningError", "PlanResult", "grip_offset", "
 
 
 def __getattr__(name: str):
-    """The planner's public names (`robot.planner`), loaded on first use (it imports this module)."""
+    """The planner's public names (`robot.planner`; `plan_panel` from `robot.grip_choice`), loaded on
+    first use (they import this module)."""
     if name in _PLANNER_NAMES:
-        from robot import planner
+        from robot import grip_choice, planner
 
-        return getattr(planner, name)
+        return getattr(grip_choice if name == "plan_panel" else planner, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 

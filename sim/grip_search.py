@@ -1,6 +1,6 @@
 """Grip faces chosen through the checker: the first face that plans *and passes the check*.
 
-The planner (`robot.planner.plan_panel`) tries the middle-row faces from the largest motion down
+The planner (`robot.grip_choice.plan_panel`) tries the middle-row faces from the largest motion down
 and takes the first that plans; a face that plans can still fail the check (the arm or the tool
 hits the panel, a wing left free). `checked_acceptor` gives the planner the full check of each
 candidate (`sim.check.check_toolpath`, exactly what `fabkit check` runs, panel from the FOLD
