@@ -25,6 +25,10 @@ from fabkit.errors import InputError
 __all__ = ["PlanSettings", "plan_fold_file", "fold_source", "check_progress_register", "cli_option"]
 
 
+#: `PlanSettings.grip_side`: the side the cup grips, or "any" (front first).
+GRIP_SIDE_CHOICES = ("any", "front", "back")
+
+
 def cli_option(field_name: str) -> str:
     """The command-line option of a settings field: `grip_face` -> `--grip-face`."""
     return "--" + field_name.replace("_", "-")
@@ -37,6 +41,7 @@ class PlanSettings:
     (`material` a name, .toml path or `Material`; lengths in metres or text with a unit)."""
 
     grip_face: int | None = None         # default: chosen among the middle-row faces, through the check
+    grip_side: str = "any"               # front | back | any (every face's front first, then the back)
     approach: float | None = None        # approach/retract distance [m], (0, 0.5]; default 0.08 (+ variants)
     standoff: float | None = None        # TCP distance from the face when gripping [m], [0, 0.1]; default 0
     tool_yaw: float | None = None        # [deg]; default automatic for axial tools
@@ -65,6 +70,8 @@ class PlanSettings:
 
         if self.grip_face is not None and not (isinstance(self.grip_face, int) and self.grip_face >= 0):
             bad("grip_face", f"{self.grip_face!r} is not a face id")
+        if self.grip_side not in GRIP_SIDE_CHOICES:
+            bad("grip_side", f"{self.grip_side!r} is not one of {', '.join(GRIP_SIDE_CHOICES)}")
         if self.approach is not None and not (finite(self.approach) and 0.0 < self.approach <= 0.5):
             bad("approach", f"{self.approach} m is not in (0, 0.5]")
         if self.standoff is not None and not (finite(self.standoff) and 0.0 <= self.standoff <= 0.1):
@@ -129,6 +136,23 @@ def _planner_options(settings: PlanSettings, spec):
     return options
 
 
+def _grip_side_options(options, settings: PlanSettings, spec):
+    """(first `PlanOptions`, further variants) for `settings.grip_side`: "any" tries the front side
+    (with approach variants when no approach is given), then the back; "front" or "back" that side
+    only."""
+    from dataclasses import replace
+
+    from robot.grip_choice import GRIP_SIDES, approach_variants, grip_variants
+
+    vary = settings.approach is None
+    if settings.grip_side == "back":
+        options = replace(options, grip_side="back", grip_standoff=_back_standoff(settings, spec))
+        return options, approach_variants(options) if vary else ()
+    sides = GRIP_SIDES if settings.grip_side == "any" else ("front",)
+    return options, grip_variants(options, vary_approach=vary, back_standoff=_back_standoff(settings, spec),
+                                  sides=sides)
+
+
 def _back_standoff(settings: PlanSettings, spec) -> float:
     """The TCP standoff of a cup on the sheet's back face: behind the design surface by
     `fabkit.sheet.back_face_offset` (0 for a rigid panel of no thickness)."""
@@ -149,7 +173,6 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
     from fabkit.io.load import load_fold_model
     from fabkit.results import Program
     from robot.cell import load_cell
-    from robot.grip_choice import grip_variants
     from robot.plan_cell import plan_in_cell
     from robot.sheet_program import compensated_states, sheet_records
     from robot.toolpath import PlanningError
@@ -174,13 +197,13 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
     common = dict(workdir=Path(workdir) if workdir is not None else fold_file.parent, fold_file=fold_file,
                   cell=cell, cell_file=Path(cell_file), loaded=loaded,
                   details={"states": int(frames.n_states), "middle_row": frames.faces.tolist()})
+    options, variants = _grip_side_options(options, settings, spec)
     try:
         res = plan_in_cell(cell, model, frames, grip_face=settings.grip_face, options=options,
                            source=fold_source(fold_file, frames.n_states),
                            # grip faces tried through the check (a sheet program is checked as compensated, later)
                            accept=None if compensated is not None else checked_acceptor(cell, str(fold_file)),
-                           variants=grip_variants(options, vary_approach=settings.approach is None,
-                                                  back_standoff=_back_standoff(settings, spec)),
+                           variants=variants,
                            sheet=compensated is not None, fold_file=fold_file)
     except PlanningError as exc:
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),),

@@ -42,56 +42,34 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
     springback-compensated states and carries the sheet and payload records
     (`robot.sheet_program`, as `fabkit toolpath --material`), and the check rebuilds the sheet
     from them and checks the fold loads (as `fabkit check`); `thickness` is then the sheet's."""
-    from dataclasses import replace
-
     from fabkit.errors import InputError, ToleranceError
-    from fabkit.frames import planning_frames
-    from fabkit.io.fold import load_fold
-    from robot.grip_choice import approach_variants
-    from robot.holds_record import clamped_faces_of
-    from robot.panel_placement import placed_cell, placement_for
-    from robot.sheet_program import compensated_states, sheet_records
-    from robot.toolpath import PlanningError, PlanOptions, plan_panel
+    from fabkit.toolpath_stage import PlanSettings, plan_fold_file
     from sim.check import run_toolpath_check
-    from sim.grip_search import checked_acceptor
 
-    cell = _cell(cell_toml, cell_name)
     out = {"stage": None, "reason": "", "toolpath": None, "check": None, "cycle_time_s": None, "grip_face": None,
            "loads": None}
-    with tempfile.TemporaryDirectory(prefix="fabkit-program-") as tmp:  # read back exactly as a file
+    sheet_fields = {} if sheet is None else {
+        "material": sheet.material, "thickness": sheet.thickness, "crease": sheet.prep.kind,
+        "ligament": sheet.prep.ligament, "bend_radius": sheet.inside_radius, "tool_mass": tool_mass}
+    # the front side only: a production run tries its set-ups (fabkit.panels.production_refold) instead
+    settings = PlanSettings(grip_face=grip_face, grip_side="front", **sheet_fields)
+    with tempfile.TemporaryDirectory(prefix="fabkit-program-") as tmp:  # read back exactly as files
         path = Path(tmp) / Path(fold_name).name
         path.write_text(fold_text)
-        design = load_fold(path)
-        options = PlanOptions()
-        try:
-            compensated = None if sheet is None else compensated_states(design, sheet, source=fold_name)
+        cell_file = Path(tmp) / Path(cell_name).name
+        cell_file.write_bytes(cell_toml.encode("utf-8"))
+        try:  # planned by the plan stage `fabkit toolpath` runs
+            program = plan_fold_file(path, cell_file, settings)
         except (InputError, ToleranceError) as exc:  # springback the sheet cannot reach, a crease too tight
-            return {**out, "stage": "program", "reason": str(exc)}
-        model = design if compensated is None else compensated.model
-        if compensated is not None:  # the cup grips the sheet's top face
-            from fabkit.sheet import front_face_offset
-
-            options = replace(options, grip_standoff=options.grip_standoff + front_face_offset(sheet, "top"))
-        try:  # planned as `fabkit toolpath` plans: the clamped face on the cell's clamp
-            frames = planning_frames(model, grip_face, source=fold_name)
-            source = {"file": fold_name, "sha256": hashlib.sha256(fold_text.encode()).hexdigest(),
-                      "states": int(frames.n_states)}
-            placement = placement_for(cell, model)
-            accept = checked_acceptor(cell, path) if grip_face is None and compensated is None else None
-            res = plan_panel(placed_cell(cell, placement), frames, grip_face=grip_face, options=options, source=source,
-                             clamped_faces=clamped_faces_of(model), placement=placement, accept=accept,
-                             variants=approach_variants(options))
-        except (PlanningError, InputError) as exc:
-            return {**out, "stage": "program", "reason": str(exc)}
-        from robot.jig_holds import with_jig_holds
-
-        tp = with_jig_holds(res.toolpath, cell, model)   # the faces the cell's jigs hold
-        if compensated is not None:
-            tp, loads = sheet_records(tp, sheet, design, compensated, cell, res.grip_face, tool_mass)
-            out["loads"] = loads.summary()
+            return {**out, "stage": "program", "reason": str(exc).replace(str(path), fold_name)}
+        if program.loads is not None:
+            out["loads"] = program.loads.summary()
+        if not program.ok:
+            return {**out, "stage": "program", "reason": program.problems[0].replace(str(path), fold_name)}
+        tp, res, cell = program.toolpath, program.plan, _cell(cell_toml, cell_name)
         out.update(toolpath=tp.to_json(), grip_face=int(res.grip_face), cycle_time_s=float(res.cycle_time))
         # the check `fabkit check` runs: arm, panel, holds, the panel's own collisions, the sheet's loads
-        pieces = None if compensated is not None else thickness  # with a sheet: the sheet's thickness
+        pieces = None if sheet is not None else thickness  # with a sheet: the sheet's thickness
         report = run_toolpath_check(tp, cell, fold=path, thickness=pieces).report
         # the report names the FOLD file it checked: the panel's own name, not this temporary copy
         check = json.loads(json.dumps(report.to_json()).replace(json.dumps(str(path))[1:-1], fold_name))

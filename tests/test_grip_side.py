@@ -79,3 +79,29 @@ def test_front_first_then_back_and_the_side_is_in_the_hash(frames):
     both = plan_panel(cell, frames, options=opts, variants=grip_variants(opts, sides=("front",)),
                       source={"file": "grid.fold"})
     assert plain.toolpath.sha256 == both.toolpath.sha256 and "side" not in plain.toolpath.extra["grip"]
+
+
+def test_the_grip_side_setting_chooses_the_side_for_cli_and_api(tmp_path):
+    """`fabkit toolpath --grip-side` / `PlanSettings.grip_side`: back plans the back side only (the
+    standoff behind the face), front never tries the back, anything else is refused naming the option."""
+    import json
+
+    from fabkit.errors import InputError
+    from fabkit.io import save_fold
+    from fabkit.toolpath_stage import PlanSettings, plan_fold_file
+
+    fold = tmp_path / "grid.fold"
+    save_fold(folded_grid_model(n_states=4, angles=[math.radians(60)] * 2), fold)
+    with pytest.raises(InputError, match="sideways") as err:
+        PlanSettings(grip_side="sideways").check()
+    assert err.value.source == "--grip-side"
+    back = plan_fold_file(fold, CELL, PlanSettings(grip_side="back"))
+    front = plan_fold_file(fold, CELL, PlanSettings(grip_side="front"))
+    assert back.ok and back.toolpath.extra["grip"]["side"] == "back"
+    assert front.ok and "side" not in front.toolpath.extra["grip"]
+    assert all(t[1] is None or "back" not in str(t[1]) for t in front.plan.tried)
+    out = tmp_path / "path.json"
+    from fabkit.cli import main
+
+    assert main(["toolpath", str(fold), "--cell", str(CELL), "-o", str(out), "--grip-side", "back", "-q"]) == 0
+    assert json.loads(out.read_text())["sha256"] == back.toolpath.sha256

@@ -50,6 +50,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--grip-face", type=int, metavar="F",
                         help="face id to grip (default: automatic among the middle-row faces, tagged or "
                              "inferred from the last fold state; never the clamped face)")
+    parser.add_argument("--grip-side", choices=("any", "front", "back"), default="any",
+                        help="side of the sheet the cup grips: front (the side the face normals point to), "
+                             "back, or any (default: every candidate face's front first, then the back)")
     parser.add_argument("--approach", type=float, default=None, metavar="M",
                         help="approach/retract distance in front of the face [m] (default 0.08; when not given "
                              "and the grip face is chosen, 0.048 and 0.128 are tried too)")
