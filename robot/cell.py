@@ -14,24 +14,20 @@ controller's base frame) in the cell/world frame; `tool.tcp` and `tool.shapes` a
 (tool0) frame; `fixture.pose` maps the panel frame (where the fold states live; the clamped face
 sits there) to world; obstacles are in world. Shape sizes follow MuJoCo: box = half extents
 (hx, hy, hz), cylinder/capsule = (radius, half_length) along the shape's local z, sphere = (radius,).
-
-One module of ~470 lines on purpose: it is one file format, its frozen records and the reader
-that validates each of their keys; split apart, a key's record and its validation would drift.
 """
 from __future__ import annotations
 
 import hashlib
 import json
-import math
 import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from fabkit.errors import InputError
+from robot.toml_reader import TableReader, checked_number
 from robot.kinematics import MODELS, URModel, get_model
 from robot.rtde_limits import MAX_BLEND, MAX_JOINT_ACCEL, MAX_TOOL_ACCEL, MAX_TOOL_SPEED
 from robot.ur_arm import HOME_Q
@@ -186,102 +182,7 @@ class Cell:
 
 # ---- validation --------------------------------------------------------------------------------
 
-class _Reader:
-    """Typed access to a TOML table that names the key in every error."""
-
-    def __init__(self, table: dict, where: str, source: str):
-        self.table, self.where, self.source = table, where, source
-        self.used: set[str] = set()
-
-    def key(self, name: str) -> str:
-        return f"{self.where}.{name}" if self.where else name
-
-    def fail(self, name: str, message: str):
-        raise InputError(f"{self.key(name)}: {message}", source=self.source)
-
-    def has(self, name: str) -> bool:
-        return name in self.table
-
-    def raw(self, name: str, required: bool = True, default: Any = None) -> Any:
-        self.used.add(name)
-        if name not in self.table:
-            if required:
-                raise InputError(f"{self.key(name)}: missing (required)", source=self.source)
-            return default
-        return self.table[name]
-
-    def string(self, name: str, required: bool = True, default: str = "", choices=None) -> str:
-        v = self.raw(name, required, default)
-        if not isinstance(v, str):
-            self.fail(name, f"expected a string, got {type(v).__name__} {v!r}")
-        if choices is not None and v not in choices:
-            self.fail(name, f"{v!r} is not one of {', '.join(map(repr, choices))}")
-        return v
-
-    def number(self, name: str, required: bool = True, default: float | None = None, lo: float | None = None,
-               hi: float | None = None, lo_open: bool = False, unit: str = "") -> float:
-        v = self.raw(name, required, default)
-        return _number(v, self.key(name), self.source, lo, hi, lo_open, unit)
-
-    def integer(self, name: str, required: bool = True, default: int = 0, lo: int | None = None,
-                hi: int | None = None) -> int:
-        v = self.raw(name, required, default)
-        if isinstance(v, bool) or not isinstance(v, int):
-            self.fail(name, f"expected an integer, got {type(v).__name__} {v!r}")
-        if (lo is not None and v < lo) or (hi is not None and v > hi):
-            self.fail(name, f"{v} is outside {lo}..{hi}")
-        return int(v)
-
-    def vector(self, name: str, n: int, required: bool = True, default=None, lo=None, hi=None, lo_open=False,
-               unit: str = "") -> np.ndarray:
-        v = self.raw(name, required, default)
-        if not isinstance(v, (list, tuple)):
-            self.fail(name, f"expected a list of {n} numbers, got {type(v).__name__} {v!r}")
-        if len(v) != n:
-            self.fail(name, f"expected {n} numbers, got {len(v)}")
-        return np.array([_number(x, f"{self.key(name)}[{i}]", self.source, lo, hi, lo_open, unit)
-                         for i, x in enumerate(v)])
-
-    def pose(self, name: str, required: bool = True) -> np.ndarray:
-        p = self.vector(name, 6, required, default=[0.0] * 6)
-        if np.linalg.norm(p[:3]) > 100.0:
-            self.fail(name, f"position {p[:3].tolist()} m is more than 100 m from the origin (millimetres?)")
-        return pose_to_matrix(p)
-
-    def table_(self, name: str, required: bool = True) -> "_Reader":
-        v = self.raw(name, required, {})
-        if not isinstance(v, dict):
-            self.fail(name, f"expected a table, got {type(v).__name__}")
-        return _Reader(v, self.key(name), self.source)
-
-    def tables(self, name: str) -> list["_Reader"]:
-        v = self.raw(name, False, [])
-        if not isinstance(v, list) or not all(isinstance(t, dict) for t in v):
-            self.fail(name, "expected an array of tables ([[...]])")
-        return [_Reader(t, f"{self.key(name)}[{i}]", self.source) for i, t in enumerate(v)]
-
-    def done(self) -> None:
-        """Reject keys nobody read (typos would otherwise be silently ignored)."""
-        extra = [k for k in self.table if k not in self.used]
-        if extra:
-            raise InputError(f"{self.key(extra[0])}: unknown key", source=self.source)
-
-
-def _number(v, key: str, source: str, lo=None, hi=None, lo_open=False, unit="") -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise InputError(f"{key}: expected a number, got {type(v).__name__} {v!r}", source=source)
-    v = float(v)
-    u = f" {unit}" if unit else ""
-    if not math.isfinite(v):
-        raise InputError(f"{key}: {v} is not finite", source=source)
-    if lo is not None and (v <= lo if lo_open else v < lo):
-        raise InputError(f"{key}: {v:.12g}{u} must be {'>' if lo_open else '>='} {lo:.12g}{u}", source=source)
-    if hi is not None and v > hi:
-        raise InputError(f"{key}: {v:.12g}{u} must be <= {hi:.12g}{u}", source=source)
-    return v
-
-
-def _shape(r: _Reader, default_name: str, need_name: bool) -> Shape:
+def _shape(r: TableReader, default_name: str, need_name: bool) -> Shape:
     name = r.string("name", required=need_name, default=default_name)
     if need_name and not name.strip():
         r.fail("name", "must not be empty")
@@ -298,7 +199,7 @@ def _shape(r: _Reader, default_name: str, need_name: bool) -> Shape:
     return Shape(name=name, kind=kind, pose=pose, size=size)
 
 
-def _mount(rr: _Reader) -> RobotMount:
+def _mount(rr: TableReader) -> RobotMount:
     model = rr.string("model", choices=tuple(MODELS))
     urm = get_model(model)
     base_pose = rr.pose("base_pose")
@@ -310,7 +211,7 @@ def _mount(rr: _Reader) -> RobotMount:
     return RobotMount(model, base_pose, home)
 
 
-def _extra_arm(r: _Reader) -> tuple[str, RobotMount]:
+def _extra_arm(r: TableReader) -> tuple[str, RobotMount]:
     name = r.string("name")
     if not name.isidentifier() or not name.islower():
         r.fail("name", f"{name!r} must be a lower-case identifier (it prefixes the arm's MuJoCo names)")
@@ -319,11 +220,11 @@ def _extra_arm(r: _Reader) -> tuple[str, RobotMount]:
     return name, mount
 
 
-def _footprint(r: _Reader) -> np.ndarray:
+def _footprint(r: TableReader) -> np.ndarray:
     raw = r.raw("footprint")
     if not isinstance(raw, list) or len(raw) < 3 or not all(isinstance(p, list) and len(p) == 2 for p in raw):
         r.fail("footprint", "expected a polygon: a list of at least 3 [x, y] points (m)")
-    fp = np.array([[_number(x, f"{r.key('footprint')}[{i}]", r.source, unit="m") for x in p]
+    fp = np.array([[checked_number(x, f"{r.key('footprint')}[{i}]", r.source, unit="m") for x in p]
                    for i, p in enumerate(raw)])
     if np.abs(fp).max() > 1.0:
         r.fail("footprint", "a point is more than 1 m from the pose (millimetres?)")
@@ -333,18 +234,18 @@ def _footprint(r: _Reader) -> np.ndarray:
     return fp
 
 
-def _jig(r: _Reader, obstacle_names: list[str]) -> Jig:
+def _jig(r: TableReader, obstacle_names: list[str]) -> Jig:
     name = r.string("name")
     if not name.isidentifier():
         r.fail("name", f"{name!r} must be an identifier (PATH.json and CHECK.json name the jig by it)")
     return Jig(name=name, **_holding_pad(r, obstacle_names))
 
 
-def _clamp(r: _Reader, obstacle_names: list[str]) -> Clamp:
+def _clamp(r: TableReader, obstacle_names: list[str]) -> Clamp:
     return Clamp(**_holding_pad(r, obstacle_names))
 
 
-def _holding_pad(r: _Reader, obstacle_names: list[str]) -> dict:
+def _holding_pad(r: TableReader, obstacle_names: list[str]) -> dict:
     """The keys a clamp and a jig share: `pose`, `footprint` and the `obstacle` that is its body."""
     pose = r.pose("pose")
     fp = _footprint(r)
@@ -357,7 +258,7 @@ def _holding_pad(r: _Reader, obstacle_names: list[str]) -> dict:
 
 def parse_cell(data: dict, source: str) -> Cell:
     """Validate a parsed TOML document (see `load_cell`)."""
-    top = _Reader(data, "", source)
+    top = TableReader(data, "", source)
     name = top.string("name")
     if not name.strip():
         top.fail("name", "must not be empty")
@@ -449,7 +350,7 @@ def file_sha256(path: str | Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def _pad(r: _Reader):
+def _pad(r: TableReader):
     """`[tool.pad]`: `cup_diameter` [m], `cups` (cup centres [[x, y], ...] in the TCP frame's xy
     plane, m), optional `vacuum` [Pa below ambient, default 60000] and `safety` [default 2.5]."""
     from fabkit.sheet.pad import CupPad
@@ -458,7 +359,7 @@ def _pad(r: _Reader):
     raw = r.raw("cups")
     if not isinstance(raw, list) or not raw or not all(isinstance(p, list) and len(p) == 2 for p in raw):
         r.fail("cups", "expected a list of at least one [x, y] cup centre (m)")
-    c = np.array([[_number(x, f"{r.key('cups')}[{i}]", r.source, unit="m") for x in p] for i, p in enumerate(raw)])
+    c = np.array([[checked_number(x, f"{r.key('cups')}[{i}]", r.source, unit="m") for x in p] for i, p in enumerate(raw)])
     if np.abs(c).max() > 0.5:
         r.fail("cups", "a cup centre is more than 0.5 m from the TCP (millimetres?)")
     if len(c) > 1:
