@@ -200,8 +200,9 @@ class _Channels:
         return True
 
 
-def serve(fd: int, host: str) -> None:
-    """Worker process: answer requests on socket `fd` until the parent's end closes.
+def serve(fd: int, host: str, priority: int = -1) -> None:
+    """Worker process: answer requests on socket `fd` until the parent's end closes; at nice value
+    `priority` (< 0) when the OS allows (`robot.realtime`; ur_rtde's threads, created later, inherit it).
 
     Ctrl-C reaches the whole process group; the worker ignores it so that the parent can still
     stop the arm through it before shutting it down.
@@ -210,8 +211,11 @@ def serve(fd: int, host: str) -> None:
 
     from fabkit.lifeline import die_with_parent
 
+    from robot.realtime import raise_priority
+
     conn = Connection(fd)
     ch = _Channels(host)
+    raise_priority(priority)
 
     def parent_gone(*_):
         ch.halt()
@@ -241,14 +245,15 @@ class RTDEWorker:
     `log(event: dict)` (optional) receives every request and reply, for the send log.
     """
 
-    def __init__(self, host: str, log: Callable[[dict], None] | None = None):
+    def __init__(self, host: str, log: Callable[[dict], None] | None = None, priority: int = -1):
         self.host = host
         self._log = log or (lambda e: None)
         mine, child = socket.socketpair()
         root = str(Path(__file__).resolve().parents[1])  # the folder holding the robot package
         env = {**os.environ, "PYTHONPATH": os.pathsep.join([root] + [p for p in [os.environ.get("PYTHONPATH")] if p])}
         try:
-            self.proc = subprocess.Popen([sys.executable, "-m", "robot.rtde_worker", str(child.fileno()), host],
+            self.proc = subprocess.Popen([sys.executable, "-m", "robot.rtde_worker", str(child.fileno()), host,
+                                          str(int(priority))],
                                          pass_fds=(child.fileno(),), stdin=subprocess.DEVNULL, env=env)
         finally:
             child.close()
@@ -256,6 +261,14 @@ class RTDEWorker:
         self._seq = 0
         self.dead_reason: str | None = None
         self._log({"t": round(time.time(), 4), "worker": "started", "pid": self.proc.pid})
+
+    def scheduling(self) -> str:
+        """The worker's nice value as "nice N", or "normal" (`robot.realtime`)."""
+        try:
+            nice = os.getpriority(os.PRIO_PROCESS, self.proc.pid)
+        except OSError:
+            return "unknown"
+        return f"nice {nice}" if nice else "normal"
 
     @property
     def pid(self) -> int:
@@ -333,4 +346,4 @@ class RTDEWorker:
 
 
 if __name__ == "__main__":
-    serve(int(sys.argv[1]), sys.argv[2])
+    serve(int(sys.argv[1]), sys.argv[2], int(sys.argv[3]) if len(sys.argv) > 3 else -1)

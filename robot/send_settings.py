@@ -11,7 +11,10 @@ __all__ = ["SendSettings", "SendResult"]
 @dataclass(frozen=True)
 class SendSettings:
     """How to send. Times in seconds; tolerances in metres and radians; `watchdog_hz`: the RTDE
-    watchdog's minimum kick rate while the control script runs (0 = off, not recommended)."""
+    watchdog's minimum kick rate while the control script runs (0 = off, not recommended);
+    `send_nice`: the nice value of the send loop thread and its ur_rtde worker while sending, when
+    the OS allows (`robot.realtime`; 0 = leave it); `rt_priority`: ur_rtde's own real-time option
+    (-1 = leave the scheduling alone)."""
 
     host: str
     chunk: int = 50
@@ -29,6 +32,7 @@ class SendSettings:
     start: StartTolerances = StartTolerances()
     watchdog_hz: float = 4.0
     rt_priority: int = -1
+    send_nice: int = -10
     connect_retry_s: float = 3.0  # keep trying the dashboard this long (a controller still starting)
     hosts: tuple = ()  # a program for several arms: the controllers of the arms after the first (`host`)
 

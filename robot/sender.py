@@ -43,6 +43,7 @@ from robot.interlock import Cleared, clear_for_send
 from robot.path_chunks import (MAX_BLEND, MAX_JOINT_ACCEL, MAX_JOINT_SPEED, MAX_TOOL_ACCEL, MAX_TOOL_SPEED,
                                SendError, chunk_entries, point_segment_distance, point_segment_distance_nd,
                                pose_distance, printed, validate_waypoints)
+from robot.realtime import raised_priority
 from robot.preflight import ControllerFault, dashboard_stop, prepare_controller, read_only_preflight
 from robot.rtde_worker import CallError, RTDEWorker, WorkerError
 from robot.send_settings import SendResult, SendSettings
@@ -274,9 +275,16 @@ class ArmSender:
         t0 = time.monotonic()
         self.event(step="cleared", toolpath_sha256=self.cleared.sha256, cell_sha256=self.cleared.cell.sha256,
                    fold_sha256=self.cleared.fold_sha256, recheck_s=round(self.cleared.recheck_s, 4))
-        self.worker = RTDEWorker(s.host, log=self._log)
+        self.worker = RTDEWorker(s.host, log=self._log, priority=s.send_nice)
+        with raised_priority(s.send_nice) as scheduling:
+            return self._run(result, t0, scheduling)
+
+    def _run(self, result: SendResult, t0: float, scheduling: str) -> SendResult:
+        s = self.s
+        n = len(self.wps)
         try:
             result.controller = self.preflight()
+            self.event(step="scheduling", send_loop=scheduling, worker=self.worker.scheduling())
             self.prepare()
             self.event(step="preflight ok", controller=result.controller)
             if self.tool.grip is not None:

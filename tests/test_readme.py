@@ -39,8 +39,8 @@ def test_readme_walkthrough_runs_as_written(tmp_path):
         with contextlib.suppress(ProcessLookupError):
             os.killpg(proc.pid, signal.SIGKILL)
         proc.wait(timeout=10)
-    assert proc.returncode == 0, out[-3000:] + err[-3000:]
     walk = tmp_path / "walk"
+    assert proc.returncode == 0, out[-3000:] + err[-3000:] + _tails(walk, "ursim.log", "send.log")
     relax = json.loads((walk / "relax.json").read_text())
     assert relax["converged"] and relax["final"]["max_abs_angle_defect_rad"] <= 1e-8
     check = json.loads((walk / "check.json").read_text())
@@ -49,6 +49,16 @@ def test_readme_walkthrough_runs_as_written(tmp_path):
     assert send["ok"] and send["last_completed"] == send["total"] - 1
     for f in ("flat.dxf", "flat.svg", "flat.png", "fold.fold", "fold_angles.png", "fold.script", "check.png"):
         assert (walk / f).is_file(), f
+
+
+def _tails(walk: Path, *names: str) -> str:
+    """The ends of the walk's logs, for a failure message (the stand-in says why a program stopped)."""
+    parts = []
+    for name in names:
+        f = walk / name
+        if f.is_file():
+            parts.append(f"\n--- {name} ---\n" + "\n".join(f.read_text(errors="replace").splitlines()[-25:]))
+    return "".join(parts)
 
 
 def test_readme_links_and_images_exist():

@@ -170,14 +170,16 @@ class Controller:
     def stopped(self) -> bool:
         return self._stop.is_set()
 
-    def log(self, text: str) -> None:
+    def log(self, text: str, popup: bool = False) -> None:
+        """A controller log line; `popup`: also on stderr without `--verbose` (what a real controller
+        shows in a popup, e.g. a runtime error that stopped the program)."""
         line = f"{self.timestamp:10.3f} {text}"
         with self._log_lock:
             self.log_lines.append(line)
             if self._log_fh:
                 self._log_fh.write(line + "\n")
                 self._log_fh.flush()
-            if self.cfg.verbose:
+            if self.cfg.verbose or popup:
                 print(line, file=sys.stderr, flush=True)
 
     # ---- the command record (admin `record`) -------------------------------------------------
@@ -361,7 +363,7 @@ class Controller:
                 self.log(f"runtime error in the replaced program {getattr(program, 'name', '?')}: {text}")
                 return
             self.last_error = text
-            self.log(f"runtime error: {text}")
+            self.log(f"runtime error: {text}", popup=True)
             if self.program is not None and self.program.running:
                 self.program.kill(f"runtime error: {text}")
             self.arm.halt()
@@ -374,7 +376,7 @@ class Controller:
             self.safety_mode = SAFETY_PROTECTIVE_STOP
             self.safety_event_time = time.monotonic()
             self.last_error = f"protective stop: {reason}"
-            self.log(f"PROTECTIVE STOP: {reason}")
+            self.log(f"PROTECTIVE STOP: {reason}", popup=True)
             if self.program is not None and self.program.running:
                 self.program.kill("protective stop")
             self.arm.halt()
@@ -384,7 +386,7 @@ class Controller:
             self.safety_mode = SAFETY_ROBOT_ESTOP
             self.safety_event_time = time.monotonic()
             self.last_error = f"emergency stop: {reason}"
-            self.log(f"EMERGENCY STOP: {reason}")
+            self.log(f"EMERGENCY STOP: {reason}", popup=True)
             if self.program is not None and self.program.running:
                 self.program.kill("emergency stop")
             self.arm.halt()
