@@ -206,7 +206,7 @@ def test_send_goes_through_the_safety_gate_to_the_stand_in(tmp_path):
     from robot.interlock import CheckFailedError
 
     panel = fk.generate("trifold", resolution=6)
-    *_, program, report = _six_lines(panel, tmp_path)
+    _, _, folds, program, report = _six_lines(panel, tmp_path)
     failed = dataclasses.replace(report, report=dataclasses.replace(report.report, ok=False), ok=False)
     with pytest.raises(CheckFailedError):
         fk.send(program, failed, host="127.0.0.1")  # refused before any connection
@@ -214,6 +214,9 @@ def test_send_goes_through_the_safety_gate_to_the_stand_in(tmp_path):
         fk.send(program, report, host="127.0.0.1", stall=60)  # a stall limit that blunts the watchdog
     with pytest.raises(fabkit.InputError, match="not an IP address or host name"):
         fk.send(program, report, host="-robot-")
+    # the dry run folds at the cell's TCP speed limit (38 s of motion at the default 0.05 m/s: 13.5 s)
+    program = fk.plan(folds, CELL, workdir=tmp_path / "fast", fold_speed=0.25)
+    report = fk.check(program)
     standin = StandIn("--cell", CELL, log=tmp_path / "ursim.log")
     try:
         sent = fk.send(program, report, host=standin.host, power_on=True)
