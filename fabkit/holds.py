@@ -334,7 +334,10 @@ def _null_space(A: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
     """Singular values (padded with zeros to the column count) and an orthonormal null-space basis."""
     if A.shape[1] == 0:
         return np.zeros(0), np.zeros((0, 0))
-    _, s, vt = np.linalg.svd(A, full_matrices=True)
+    # A is tall (rows: loop closures and holds): the thin SVD has the same singular values and, with
+    # at least as many rows as columns, all of V; only a wide A needs the full one. The full U of a
+    # tall A (rows x rows) was most of a check's time.
+    _, s, vt = np.linalg.svd(A, full_matrices=A.shape[0] < A.shape[1])
     sv = np.zeros(A.shape[1])
     sv[:len(s)] = s
     rank = int(np.sum(sv > tol))
