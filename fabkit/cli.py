@@ -113,8 +113,29 @@ def _chosen_command(argv: list[str]) -> str | None:
     return None
 
 
+#: BLAS/OpenMP thread counts a command runs with unless the user set them: fabkit's matrices are
+#: small to medium (a holds check's 777 x 324 SVD), where extra BLAS threads only wait on each other
+#: (measured on 2 loaded cores: a two-crease panel's `fabkit toolpath` took 25-35 s of CPU with
+#: OpenBLAS's default threads and 9-10 s with one). More cores are used by processes (`--jobs`).
+BLAS_THREADS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def _one_blas_thread() -> None:
+    """One BLAS thread, unless the user chose: as environment variables, read when numpy loads (not
+    yet, for a command run from the shell: the CLI imports it lazily) and by subprocesses; a
+    process that loaded numpy already (a script calling `main`) is limited through threadpoolctl."""
+    if any(name in os.environ for name in BLAS_THREADS):
+        return
+    os.environ.update(BLAS_THREADS)
+    if "numpy" in sys.modules:
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(limits=1)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    _one_blas_thread()
     chosen = _chosen_command(argv)
     parser = build_parser(only=chosen if chosen is not None else "")
     args = parser.parse_args(argv)
