@@ -121,6 +121,9 @@ def test_rows_last_sheet_nested_across_keeps_grain():
         assert any("nested across" in note for note in n.notes)
         if allowed:
             assert {round(p.angle % 360, 6) for p in n.placements} <= allowed
+    long = [box(0, 0, 1400, 100), box(0, 0, 300, 200)]  # 1400 mm fits only along the sheet: kept so
+    n = nest_parts(long, NestOptions(engine="rows"))
+    assert n.verify(long) == [] and not any("nested across" in note for note in n.notes)
 
 
 def test_verify_catches_overlap_and_refusals():

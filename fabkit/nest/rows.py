@@ -329,6 +329,7 @@ def _last_sheet_across(placements: list[Placement], n: int, parts: list[Polygon]
     stacked from its left end, when that leaves a longer offcut at its right end; None otherwise.
     Nested on the sheet turned by 90 deg (grain x there is grain y here), then turned back."""
     W, H = options.sheet
+    m = options.spacing
     last = [p for p in placements if p.sheet == n - 1]
     ids = [p.part for p in last]
     turned = {"none": "none", "x": "y", "y": "x"}[options.grain]
@@ -340,8 +341,12 @@ def _last_sheet_across(placements: list[Placement], n: int, parts: list[Polygon]
     back = []
     for p in moved:  # (x', y') on the turned sheet is (y', H - x') here: a turn by -90 deg
         back.append(Placement(part=p.part, sheet=n - 1, angle=(p.angle - 90.0) % 360.0, x=p.y, y=H - p.x))
-    if _used_length(back, parts) >= _used_length(last, parts) - 1e-9:
-        return None
+    from fabkit.nest.engines import place
+
+    inside = all(b[0] >= m - 1e-6 and b[1] >= m - 1e-6 and b[2] <= W - m + 1e-6 and b[3] <= H - m + 1e-6
+                 for b in (place(parts[p.part], p).bounds for p in back))
+    if not inside or _used_length(back, parts) >= _used_length(last, parts) - 1e-9:
+        return None  # a part that only fits along the sheet, or no longer offcut
     keep = [p for p in placements if p.sheet != n - 1]
     return sorted(keep + back, key=lambda p: p.part)
 
