@@ -14,8 +14,8 @@ shapely (each part once, inside the margin, no two parts closer than spacing + k
 
 Bounds printed with it (not nestings): the sheets the parts would need at 100 %, the sheets their
 outlines grown by half the gap need (no nesting can use fewer), and the sheets of the ideal shelf
-cells (each part in an endless shelf of its own copies: its slid pitch times its height plus the
-gap), which row nesting can at best approach.
+cells (each part, at the turn row nesting gives it, in an endless shelf of its own copies: its
+slid pitch times its height plus the gap), which row nesting can at best approach.
 
 FABKIT_BENCH_NEST_SECONDS sets sparrow's time limit per strip solve (default 10, as in the production
 bench). FABKIT_BENCH_NEST_PARTS=FILE keeps the part outlines (JSON) in FILE between runs.
@@ -53,14 +53,15 @@ def _build_parts(folder: Path) -> list[list[list[float]]]:
 
 
 def _bounds(parts, gap: float) -> dict:
-    from fabkit.nest.rows import ideal_shelf_cell
+    from fabkit.nest.rows import ideal_shelf_cell, least_cell_angle
 
     W, H = SHEET
     area = sum(g.area for g in parts)
     grown = sum(g.buffer(gap / 2).area for g in parts)
     # grown by gap/2, they may reach gap/2 into the margin
     usable_grown = (W - 2 * (10.0 - gap / 2)) * (H - 2 * (10.0 - gap / 2))
-    cells = sum(ideal_shelf_cell(g, gap) for g in parts)
+    room = (W - 20.0, H - 20.0)
+    cells = sum(ideal_shelf_cell(g, gap, least_cell_angle(g, gap, None, room)) for g in parts)
     return {"sheets at 100 %": area / (W * H), "sheets of the outlines grown by gap/2 (lower bound)":
             grown / usable_grown, "sheets of ideal shelf cells": cells / ((W - 20.0) * (H - 20.0 + gap)),
             "sheets for 75 %": area / (0.75 * W * H)}
@@ -94,8 +95,11 @@ def main() -> dict:
                      "same placements on a rerun": "not deterministic (time-limited)" if again is None
                      else again.placements == n.placements, "target": 0.75})
     gap = NestOptions().gap
+    bounds = _bounds(parts, gap)
+    for k, v in bounds.items():
+        print(f"   {k}: {v:.2f}")
     return report("nesting", rows, {"panels": len(parts), "sheet mm": list(SHEET), "gap mm": gap,
-                                    "geometry s": t_geometry, **_bounds(parts, gap)})
+                                    "geometry s": t_geometry, **bounds})
 
 
 if __name__ == "__main__":

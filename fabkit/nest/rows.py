@@ -83,6 +83,20 @@ TALLER = 1.3
 WASTE_NEW = 0.45
 
 
+#: [deg] hull edges within this angle of one already tried are not tried again (a curved side's
+#: many nearly collinear hull edges; measured on the pleated vault: the same nesting, twice as fast)
+ANGLE_STEP = 0.2
+
+
+def _distinct(angles: list[float]) -> list[float]:
+    """`angles` less those within `ANGLE_STEP` (mod 360) of an earlier one."""
+    kept: list[float] = []
+    for a in angles:
+        if all(abs((a - k + 180.0) % 360.0 - 180.0) >= ANGLE_STEP for k in kept):
+            kept.append(a)
+    return kept
+
+
 def least_cell_angle(part: Polygon, gap: float, angles: list[float] | None = None,
                      room: tuple[float, float] = (math.inf, math.inf)) -> float:
     """The rotation [deg] (a hull edge on the x axis, or one of `angles`) with the least
@@ -94,7 +108,7 @@ def least_cell_angle(part: Polygon, gap: float, angles: list[float] | None = Non
         angles = [-math.degrees(math.atan2(y, x)) for x, y in np.diff(h, axis=0) if x or y]
     best, best_c = least_height_angle(part, angles), math.inf
     _, lo, _, hi = affinity.rotate(part, best, origin=(0.0, 0.0)).bounds
-    for a in angles:
+    for a in _distinct(angles):
         x0, y0, x1, y1 = affinity.rotate(part, a, origin=(0.0, 0.0)).bounds
         if x1 - x0 > room[0] + 1e-9 or y1 - y0 > min(room[1], TALLER * (hi - lo)) + 1e-9:
             continue
