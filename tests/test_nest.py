@@ -1,4 +1,4 @@
-"""Nesting on stock sheets (sparrow and the shelf baseline) and the per-sheet cut files."""
+"""Nesting on stock sheets (row nesting, sparrow and the shelf baseline) and the per-sheet cut files."""
 from __future__ import annotations
 
 import math
@@ -77,6 +77,53 @@ def test_rows_nest_sheared_parts_into_each_other():
     _independent_check(parts, rows, (2000.0, 1000.0), 5.0, 5.0)
     assert rows.n_sheets == 1 and shelf.n_sheets == 2
     assert rows.utilisation == pytest.approx(60 * 20000 / 2e6)
+
+
+def _curved_strips(n=40, seed=7):
+    """Bands between two concentric arcs (a developed curved strip), 300-900 mm long, 60-150 mm wide,
+    bent to radii 0.8-3 m, tapered by up to 30 %."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        length, width, radius = rng.uniform(300, 900), rng.uniform(60, 150), rng.uniform(800, 3000)
+        taper = rng.uniform(0.7, 1.0)
+        t = np.linspace(-0.5, 0.5, 13) * length / radius
+        w = width * np.linspace(1.0, taper, 13)
+        inner = np.column_stack([radius * np.sin(t), radius * np.cos(t)])
+        outer = np.column_stack([(radius + w) * np.sin(t), (radius + w) * np.cos(t)])
+        out.append(Polygon(np.vstack([inner, outer[::-1]])))
+    return out
+
+
+def test_rows_beat_the_shelf_baseline_on_curved_strips():
+    """Curved, tapered strips: rows nesting needs no more sheets than the bounding-rectangle shelves
+    and uses a quarter less sheet length (measured: 55.7 % against 43.3 % of the length used), places
+    each strip once without overlap, gives the same placements again, and leaves the last sheet's
+    offcut at its right end."""
+    parts = _curved_strips()
+    opts = dict(sheet=(2000.0, 1000.0), spacing=5.0, kerf=0.2)
+    rows = nest_parts(parts, NestOptions(engine="rows", **opts))
+    shelf = nest_parts(parts, NestOptions(engine="shelf", **opts))
+    _independent_check(parts, rows, opts["sheet"], 5.2, 5.0)
+    assert rows.n_sheets <= shelf.n_sheets
+    assert rows.used_length_utilisation(parts) > 1.2 * shelf.used_length_utilisation(parts)
+    assert nest_parts(parts, NestOptions(engine="rows", **opts)).placements == rows.placements
+    assert rows.used_length_utilisation(parts) > rows.utilisation  # the last sheet is not used to its end
+
+
+def test_rows_last_sheet_nested_across_keeps_grain():
+    """A few parts on one long sheet: nested across from the left end (shorter used length than one
+    shelf along the sheet), with the grain still along the sheet's y."""
+    parts = _parts(12, seed=3)
+    for grain, allowed in (("none", None), ("y", {90.0, 270.0})):
+        n = nest_parts(parts, NestOptions(sheet=(3000.0, 1000.0), spacing=5.0, grain=grain, engine="rows"))
+        _independent_check(parts, n, (3000.0, 1000.0), 5.2, 5.0)
+        assert any("nested across" in note for note in n.notes)
+        if allowed:
+            assert {round(p.angle % 360, 6) for p in n.placements} <= allowed
+    long = [box(0, 0, 1400, 100), box(0, 0, 300, 200)]  # 1400 mm fits only along the sheet: kept so
+    n = nest_parts(long, NestOptions(engine="rows"))
+    assert n.verify(long) == [] and not any("nested across" in note for note in n.notes)
 
 
 def test_verify_catches_overlap_and_refusals():

@@ -4,8 +4,10 @@
 and to the sheet edge (`spacing + kerf`), rotation free or (`grain`) held so each part's grain axis
 runs along the sheet's x or y. Three engines:
 
-- `rows` (default): each part turned to its least height, best-fit onto shelves and slid exactly to
-  the gap against the parts already there, so sheared sides nest (`fabkit.nest.rows`);
+- `rows` (default): each part turned to its least shelf cell, best-fit onto shelves (on the floor,
+  or two low parts sharing a tall shelf) and slid exactly to the gap against the parts already
+  there, so sheared sides nest; the last sheet nested across for a longer offcut
+  (`fabkit.nest.rows`; deterministic);
 - `packingsolver`: irregular nesting by sparrow (Gardeyn & Wauters, through the `spyrrow`
   package): strip packing with collision detection on the true outlines. Sheets are filled by
   packing the remaining parts into a strip of the sheet's height and keeping the parts that lie

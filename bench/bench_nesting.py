@@ -1,0 +1,106 @@
+"""Nesting the 494-panel pleated vault's flat patterns on 2500 x 1250 mm sheets, every engine.
+
+The flat patterns come from the production run's geometry path (layout, relax, unfold,
+congruency: `fabkit.panels.workflow.run_panels` on 2 workers, ~10-15 s), built once per run; the
+relax/unfold results are cached in a temporary folder (`fabkit.panels.cache.ResultCache`) and
+the part outlines written there as JSON, which every engine then nests. So nesting is measured
+without the ~30-minute refold/program/check of `python -m bench production`.
+
+Utilisation = total panel (flat pattern) area / area of the sheets used, every sheet counted whole
+(`Nesting.utilisation`, the strict number; target >= 75 %), and also with the last sheet counted
+only up to its used length (`Nesting.used_length_utilisation`, the rest an offcut). The baseline in
+the same run is the bounding-rectangle shelf packing (`shelf`); every nesting is verified with
+shapely (each part once, inside the margin, no two parts closer than spacing + kerf).
+
+Bounds printed with it (not nestings): the sheets the parts would need at 100 %, the sheets their
+outlines grown by half the gap need (no nesting can use fewer), and the sheets of the ideal shelf
+cells (each part, at the turn row nesting gives it, in an endless shelf of its own copies: its
+slid pitch times its height plus the gap), which row nesting can at best approach.
+
+FABKIT_BENCH_NEST_SECONDS sets sparrow's time limit per strip solve (default 10, as in the production
+bench). FABKIT_BENCH_NEST_PARTS=FILE keeps the part outlines (JSON) in FILE between runs.
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from bench.common import report
+
+SHEET = (2500.0, 1250.0)
+
+
+def _build_parts(folder: Path) -> list[list[list[float]]]:
+    from fabkit.generate.pleated import pleated_vault
+    from fabkit.nest import panel_parts
+    from fabkit.panels.cache import ResultCache
+    from fabkit.panels.layout import layout_panels
+    from fabkit.panels.surface import GridSurface, grid_from_topology
+    from fabkit.panels.workflow import PanelsOptions, run_panels
+
+    mesh = pleated_vault(rows=30, columns=96)  # as bench/bench_production.py
+    index, _ = grid_from_topology(mesh)
+    layout = layout_panels(GridSurface(points=mesh.vertices[index], mesh=mesh, index=index), cols=16,
+                           columns_per_panel=6)
+    run = run_panels(layout, PanelsOptions(), jobs=2, cache=ResultCache(folder / "geometry", salt="bench-nesting"))
+    parts, _ = panel_parts(run)
+    return [np.asarray(g.exterior.coords).tolist() for g in parts]
+
+
+def _bounds(parts, gap: float) -> dict:
+    from fabkit.nest.rows import ideal_shelf_cell, least_cell_angle
+
+    W, H = SHEET
+    area = sum(g.area for g in parts)
+    grown = sum(g.buffer(gap / 2).area for g in parts)
+    # grown by gap/2, they may reach gap/2 into the margin
+    usable_grown = (W - 2 * (10.0 - gap / 2)) * (H - 2 * (10.0 - gap / 2))
+    room = (W - 20.0, H - 20.0)
+    cells = sum(ideal_shelf_cell(g, gap, least_cell_angle(g, gap, None, room)) for g in parts)
+    return {"sheets at 100 %": area / (W * H), "sheets of the outlines grown by gap/2 (lower bound)":
+            grown / usable_grown, "sheets of ideal shelf cells": cells / ((W - 20.0) * (H - 20.0 + gap)),
+            "sheets for 75 %": area / (0.75 * W * H)}
+
+
+def main() -> dict:
+    from shapely.geometry import Polygon
+
+    from fabkit.nest import NestOptions, nest_parts
+
+    limit = float(os.environ.get("FABKIT_BENCH_NEST_SECONDS", 10))
+    keep = os.environ.get("FABKIT_BENCH_NEST_PARTS")
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="fabkit-bench-nesting-") as tmp:
+        path = Path(keep) if keep else Path(tmp) / "parts.json"
+        t0 = time.perf_counter()
+        if not path.is_file():
+            path.write_text(json.dumps(_build_parts(Path(tmp))))
+        t_geometry = time.perf_counter() - t0
+        parts = [Polygon(p) for p in json.loads(path.read_text())]
+    nests = {}
+    for engine in ("shelf", "rows", "packingsolver"):
+        nests[engine] = n = nest_parts(parts, NestOptions(sheet=SHEET, engine=engine, time_limit=limit))
+        again = nest_parts(parts, NestOptions(sheet=SHEET, engine=engine, time_limit=limit)) if engine != "packingsolver" else None
+        rows.append({"case": f"nesting {engine}" + (f" ({limit:g} s per strip solve)" if engine == "packingsolver" else ""),
+                     "parts": len(parts), "sheets": n.n_sheets, "seconds": n.seconds,
+                     "utilisation (whole sheets)": n.utilisation,
+                     "utilisation (last sheet by length)": n.used_length_utilisation(parts),
+                     "ratio to shelf (whole sheets)": n.utilisation / nests["shelf"].utilisation,
+                     "verified (each once, inside, gap)": not n.verify(parts),
+                     "same placements on a rerun": "not deterministic (time-limited)" if again is None
+                     else again.placements == n.placements, "target": 0.75})
+    gap = NestOptions().gap
+    bounds = _bounds(parts, gap)
+    for k, v in bounds.items():
+        print(f"   {k}: {v:.2f}")
+    return report("nesting", rows, {"panels": len(parts), "sheet mm": list(SHEET), "gap mm": gap,
+                                    "geometry s": t_geometry, **bounds})
+
+
+if __name__ == "__main__":
+    main()
