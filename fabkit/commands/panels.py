@@ -78,7 +78,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--grain", choices=("none", "x", "y"), default="none",
                    help="keep each panel's arcs along the sheet's grain direction (default: any rotation)")
     g.add_argument("--nester", choices=("rows", "packingsolver", "shelf"), default="rows",
-                   help="nesting engine (default rows: parts at their least height, slid together on shelves; "
+                   help="nesting engine (default rows: parts turned to their least shelf cell, slid together on shelves; "
                         "packingsolver: sparrow; shelf: bounding-box shelf packing)")
     g.add_argument("--nest-seconds", type=float, default=30.0, help="time limit of the nesting solver (default 30)")
     from fabkit.commands._sheet import add_sheet_arguments
