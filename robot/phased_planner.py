@@ -1,0 +1,209 @@
+"""One-arm programs in phases: grip, fold some states, release, regrip (another face or side), fold on.
+
+A phased program is one toolpath whose waypoints run phase after phase. Each phase is a complete
+one-arm program over a span of the FOLD file's fold states (`robot.planner.plan_toolpath` on that
+span of its grip face's frames): approach, grip, fold through the span, release, retract. Between
+phases the arm transfers by a joint move through the cell's home configuration (the one pose the
+planner knows to be clear of the panel and the fixture, `movej`), and the next phase starts with
+its own approach. Consecutive phases share a fold state (the last of one is the first of the
+next), so the panel does not move while the arm is off it: between release and regrip the creases
+keep the angles they have (a rigid panel, or aluminium that keeps its fold; springback between the
+release and the regrip is not modelled, so a sheet program is not planned in phases).
+
+PATH.json records the phases in `phases` (inside the whole-document hash): per phase its grip
+`face`, `side` ("front" | "back"), fold `states` [first, last] and `waypoints` [first, last]
+(approach .. retract). The `holds` record names the phase's grip face on every move that carries the
+panel. A program of one phase has no `phases` key: it is exactly the program `plan_toolpath`
+plans.
+
+The same-crease regrip (`regrip_splits`, `plan_regrip`): a fold that no single grip reaches (a
+175 deg valley closes the wing over a cup on the front; the back of the flat panel faces the bench)
+is folded on the front side to an intermediate state, where the grip face stands near vertical,
+released, and finished on the back side.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from fabkit.errors import InputError
+from robot.holds_record import HOLDING_OPS
+from robot.transfer import TRANSFER_LIFTS, TransferError, lifted_waypoint
+
+__all__ = ["PhaseSpec", "plan_phases", "phases_of", "regrip_splits", "plan_regrip", "REGRIP_SPLITS_TRIED"]
+
+#: Split states tried per face for a same-crease regrip (nearest a 90 deg turn of the grip face first).
+REGRIP_SPLITS_TRIED = 2
+
+
+@dataclass(frozen=True)
+class PhaseSpec:
+    """One phase to plan: grip `face` (polygon id) on `side` ("front" | "back") through fold states
+    `first`..`last` (indices of the FOLD file's states, `first` < `last`)."""
+
+    face: int
+    side: str
+    first: int
+    last: int
+
+    def to_json(self) -> dict:
+        return {"face": int(self.face), "side": self.side, "states": [int(self.first), int(self.last)]}
+
+
+def _check_specs(specs, n_states: int) -> None:
+    if not specs:
+        raise InputError("a phased program needs at least one phase")
+    for k, p in enumerate(specs):
+        if p.side not in ("front", "back"):
+            raise InputError(f"phase {k}: grip side must be front or back, got {p.side!r}")
+        if not 0 <= p.first < p.last <= n_states - 1:
+            raise InputError(f"phase {k}: fold states {p.first}..{p.last} are not a span of states 0..{n_states - 1}")
+        if k and p.first != specs[k - 1].last:
+            raise InputError(f"phase {k} starts at fold state {p.first}, the phase before ends at {specs[k - 1].last}")
+    if specs[0].first != 0 or specs[-1].last != n_states - 1:
+        raise InputError(f"the phases must run from fold state 0 to {n_states - 1}")
+
+
+def plan_phases(cell, frames, specs, *, options, source: dict | None = None, clamped_faces=(),
+                placement: dict | None = None, standoffs: dict | None = None, lifts=TRANSFER_LIFTS,
+                via_home: bool = True):
+    """Plan the phases `specs` (`PhaseSpec`, covering the states in order) for the middle-row frames
+    `frames` (`fabkit.frames.FaceFrames`) in `cell` -> `robot.planner.PlanResult` of the whole
+    program (module docstring). `options`: the planner's `PlanOptions` (its `grip_side` is each
+    phase's); `standoffs`: {side: grip standoff} (default `options.grip_standoff`); `lifts`: the
+    transfer's lifts over the retract and the next approach, tried in order (`robot.transfer`);
+    `via_home`: the transfer passes through the home configuration. Raises
+    `robot.planner.PlanningError` for the first phase that does not plan, its waypoint numbered in
+    the whole program."""
+    from robot.motion import toolpath_cycle_time
+    from robot.planner import PlanningError, PlanResult, plan_toolpath
+    from robot.toolpath import Toolpath
+
+    specs = tuple(specs)
+    _check_specs(specs, frames.n_states)
+    parts, offset = [], 0
+    for k, p in enumerate(specs):
+        opt = replace(options, grip_side=p.side,
+                      grip_standoff=(standoffs or {}).get(p.side, options.grip_standoff))
+        try:
+            res = plan_toolpath(cell, frames.of_face(p.face)[p.first:p.last + 1], options=opt, grip_face=p.face,
+                                clamped_faces=clamped_faces, placement=placement, source=source)
+        except PlanningError as exc:
+            raise PlanningError(exc.waypoint + offset, exc.op, exc.state + p.first, exc.kind,
+                                f"phase {k} ({p.side} side, face {p.face}): {exc.detail}") from None
+        parts.append(res)
+        offset += len(res.toolpath.waypoints) + (1 if via_home else 0) - (1 if k + 1 < len(specs) else 0)
+    if len(parts) == 1:
+        return parts[0]
+    waypoints, rows, phases = [], [], []
+    for k, (p, res) in enumerate(zip(specs, parts)):
+        shifted = [replace(w, state=w.state + p.first) for w in res.toolpath.waypoints]
+        if k:   # the transfer: lift off the retract, home, over the next approach (robot.transfer)
+            home = shifted[0]
+            up, why = None, ""
+            for h in lifts:   # the highest lift both legs reach on their branches
+                try:
+                    up = [lifted_waypoint(cell, waypoints[-2], h, v=home.v, a=home.a),
+                          *([replace(home, state=waypoints[-1].state)] if via_home else []),
+                          lifted_waypoint(cell, shifted[1], h, v=home.v, a=home.a)]
+                    break
+                except TransferError as exc:
+                    why = str(exc)
+            if up is None:
+                raise PlanningError(len(waypoints) - 1, "home", waypoints[-1].state, "unreachable",
+                                    f"transfer to phase {k}: {why}")
+            waypoints.pop()         # the phase before's home, now between the two lifts
+            rows.pop()
+            shifted = up + shifted[1:]
+        start = len(waypoints)
+        waypoints += shifted
+        ops = [w.op for w in shifted]
+        rows += [int(p.face) if op in HOLDING_OPS else None for op in ops]
+        first = start + ops.index("approach")
+        last = start + len(ops) - 1 - ops[::-1].index("retract")
+        phases.append({**p.to_json(), "waypoints": [first, last]})
+    head = parts[0].toolpath
+    extra = dict(head.extra)
+    extra["holds"] = {**head.extra["holds"], "arms": {"a": rows}}
+    extra["phases"] = phases
+    checks = [r.toolpath.extra["checks"] for r in parts]
+    extra["checks"] = {**checks[0],
+                       **{k: max(c[k] for c in checks) for k in ("max_joint_step_rad", "max_fold_joint_step_rad",
+                                                                  "joint_speed_ratio")},
+                       "min_singularity": {k: min(c["min_singularity"][k] for c in checks)
+                                           for k in checks[0]["min_singularity"]}}
+    tp = Toolpath(robot=head.robot, cell=head.cell, tcp=head.tcp, source=head.source, waypoints=tuple(waypoints),
+                  extra=extra, cell_sha256=head.cell_sha256)
+    total = toolpath_cycle_time(tp).total
+    tp = Toolpath(robot=head.robot, cell=head.cell, tcp=head.tcp, source=head.source, waypoints=tuple(waypoints),
+                  extra={**extra, "cycle_time_s": total}, cell_sha256=head.cell_sha256)
+    return PlanResult(toolpath=tp, grip_face=int(specs[0].face), branch=parts[0].branch,
+                      max_joint_step=max(r.max_joint_step for r in parts),
+                      joint_speed_ratio=max(r.joint_speed_ratio for r in parts),
+                      min_singularity=extra["checks"]["min_singularity"], cycle_time=total)
+
+
+def phases_of(tp) -> list[dict] | None:
+    """The validated `phases` record of a toolpath (None for a program of one phase); `ValueError`
+    naming the key for a malformed one."""
+    ph = tp.extra.get("phases") if isinstance(tp.extra, dict) else None
+    if ph is None:
+        return None
+    n = len(tp.waypoints)
+
+    def pair(v, top):
+        return (isinstance(v, list) and len(v) == 2 and all(isinstance(x, int) and not isinstance(x, bool)
+                                                            for x in v) and 0 <= v[0] <= v[1] <= top)
+
+    if not isinstance(ph, list) or len(ph) < 2:
+        raise ValueError("phases: expected a list of two or more phases")
+    for k, p in enumerate(ph):
+        if not (isinstance(p, dict) and isinstance(p.get("face"), int) and p.get("side") in ("front", "back")
+                and pair(p.get("states"), 10**6) and pair(p.get("waypoints"), n - 1)):
+            raise ValueError(f"phases[{k}]: expected {{face, side: front|back, states: [first, last], "
+                             "waypoints: [first, last]}")
+        if k and p["waypoints"][0] <= ph[k - 1]["waypoints"][1]:
+            raise ValueError(f"phases[{k}]: its waypoints overlap the phase before")
+    return ph
+
+
+def regrip_splits(frames, face: int, tried: int = REGRIP_SPLITS_TRIED) -> list[int]:
+    """Inner fold states at which a same-crease regrip of `face` may change side, best first: the
+    grip face's normal nearest a quarter turn from the flat state (the wing stands up: its back is
+    open to the arm, and the front grip has not closed it over the cup yet)."""
+    F = frames.of_face(face)
+    z = F[:, :3, 2]
+    turn = np.degrees(np.arccos(np.clip(z @ z[0], -1.0, 1.0)))
+    inner = np.arange(1, len(F) - 1)
+    order = inner[np.argsort(np.abs(turn[inner] - 90.0), kind="stable")]
+    return [int(s) for s in order[:tried]]
+
+
+def plan_regrip(cell, frames, faces, *, options, source: dict | None = None, clamped_faces=(),
+                placement: dict | None = None, accept=None, back_standoff: float | None = None,
+                max_faces: int = 2):
+    """The same-crease regrip (module docstring): for the first `max_faces` of `faces` (the grip
+    order) and their `regrip_splits`, plan front 0..k then back k..last and return the first
+    program that `accept` (the checker) passes, as (PlanResult or None, tried) with tried
+    [(face, problem text)] of every candidate refused."""
+    from robot.planner import PlanningError
+
+    last = frames.n_states - 1
+    tried = []
+    standoffs = {"front": options.grip_standoff,
+                 "back": options.grip_standoff if back_standoff is None else float(back_standoff)}
+    for face in list(faces)[:max_faces]:
+        for k in regrip_splits(frames, face):
+            specs = (PhaseSpec(face, "front", 0, k), PhaseSpec(face, "back", k, last))
+            try:
+                res = plan_phases(cell, frames, specs, options=options, source={**(source or {}), "grip_face": face},
+                                  clamped_faces=clamped_faces, placement=placement, standoffs=standoffs)
+            except PlanningError as exc:
+                tried.append((face, f"regrip front->back at fold state {k}: {exc}"))
+                continue
+            problem = accept(res) if accept is not None else None
+            if problem is None:
+                return res, tried
+            tried.append((face, f"regrip front->back at fold state {k}: {problem}"))
+    return None, tried
