@@ -31,7 +31,7 @@ from fabkit.errors import InputError
 from robot.holds_record import HOLDING_OPS
 from robot.transfer import TRANSFER_LIFTS, TransferError, lifted_waypoint
 
-__all__ = ["PhaseSpec", "plan_phases", "phases_of", "regrip_splits", "plan_regrip", "REGRIP_SPLITS_TRIED"]
+__all__ = ["PhaseSpec", "plan_phases", "phases_of", "regrip_splits", "plan_regrip", "with_regrip", "REGRIP_SPLITS_TRIED"]
 
 #: Split states tried per face for a same-crease regrip (nearest a 90 deg turn of the grip face first).
 REGRIP_SPLITS_TRIED = 2
@@ -207,3 +207,40 @@ def plan_regrip(cell, frames, faces, *, options, source: dict | None = None, cla
                 return res, tried
             tried.append((face, f"regrip front->back at fold state {k}: {problem}"))
     return None, tried
+
+
+def with_regrip(cell, frames, *, options, source: dict | None = None, clamped_faces=(), placement: dict | None = None,
+                accept, variants=()):
+    """`robot.grip_choice.plan_panel` with the checker `accept`, and when no single grip passes
+    (none plans, or the checker refuses every one) the same-crease regrip (`plan_regrip`, the back
+    side at the standoff of the back-side variant in `variants`). Returns the first program that
+    passes, else the single-grip program the check will refuse (its `tried` naming the regrips
+    refused too); raises `PlanningError` when nothing plans."""
+    from robot.grip_choice import grip_order, plan_panel
+    from robot.planner import PlanningError
+
+    verdicts = {}
+
+    def judged(res):
+        verdicts[id(res.toolpath)] = problem = accept(res)
+        return problem
+
+    try:
+        single, failure = plan_panel(cell, frames, options=options, source=source, clamped_faces=clamped_faces,
+                                     placement=placement, accept=judged, variants=variants), None
+    except PlanningError as exc:
+        single, failure = None, exc
+    if single is not None and verdicts.get(id(single.toolpath)) is None:
+        return single
+    back = next(v for v in variants if v.grip_side == "back")
+    res, tried = plan_regrip(cell, frames, grip_order(frames), options=options, source=source,
+                             clamped_faces=clamped_faces, placement=placement, accept=accept,
+                             back_standoff=back.grip_standoff)
+    before = single.tried if single is not None else ()
+    if res is not None:
+        return replace(res, tried=tuple(before) + tuple(tried))
+    if single is not None:
+        return replace(single, tried=tuple(before) + tuple(tried))
+    raise PlanningError(failure.waypoint, failure.op, failure.state, failure.kind,
+                        f"{failure.detail}; a regrip in phases did not plan either: "
+                        + "; ".join(t for _, t in tried))
