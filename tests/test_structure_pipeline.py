@@ -90,7 +90,9 @@ def _check_and_send(tmp_path, path, send: bool, arm_hits_panel: bool = False):
     other), then with `send` a dry-run `fabkit send` to the controller stand-in. `arm_hits_panel`:
     a 175 deg valley fold closes the wing over a cup on the front side, and on the bench cell the
     arm cannot grip the back instead (under a panel 0.3 m over the bench every branch meets the
-    bench or the panel): the holds are proven, but the check refuses the arm inside the panel."""
+    bench or the panel), nor a regrip (front to a wing standing up, then back: on this cell the back
+    phase meets the panel or the transfer finds no configuration): the holds are proven, but the
+    check refuses the arm inside the panel."""
     from _ursim import StandIn
 
     check = tmp_path / "check.json"
@@ -101,6 +103,7 @@ def _check_and_send(tmp_path, path, send: bool, arm_hits_panel: bool = False):
         assert any(p["kind"] == "collision" and p["pair"][1].startswith("face_") for p in rep["problems"])
         tried = json.loads((tmp_path / "toolpath.json").read_text())["faces_tried"]
         assert any(t["problem"].startswith("back side: check:") for t in tried), tried  # both sides tried
+        assert any(t["problem"].startswith("regrip front->back") for t in tried), tried  # and a regrip
         return
     assert rc == 0 and rep["ok"], [p["detail"] for p in rep["problems"]]
     assert rep["holds"]["ok"] and all(s["ok"] for s in rep["holds"]["states"]) and rep["panel_collisions"]["ok"]
