@@ -10,26 +10,25 @@ exactly the program `plan_toolpath` plans.
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fabkit.cli import main
 from fabkit.io.obj import save_obj
-from structure_panels import plain, reflect_tagged
+from structure_panels import plain, reflect_tagged, shuffled
 
 CELL = str(Path(__file__).resolve().parent.parent / "cells" / "ur5e_bench.toml")
 
 
-@pytest.fixture(scope="module")
-def panel(tmp_path_factory):
-    """(seq.fold, placed cell, frames, clamped faces, placement) of a plain one-crease 60 deg panel."""
+def _make_panel(d, mesh):
+    """(seq.fold, placed cell, frames, clamped faces, placement) of `mesh` through relax, unfold, refold."""
     from fabkit.frames import planning_frames
     from fabkit.io.load import load_fold_model
     from robot.cell import load_cell
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
 
-    d = tmp_path_factory.mktemp("phased")
-    save_obj(plain(reflect_tagged(1, 60.0)), d / "panel.obj")
+    save_obj(mesh, d / "panel.obj")
     assert main(["relax", str(d / "panel.obj"), "-o", str(d / "rel.obj"), "-q"]) == 0
     assert main(["unfold", str(d / "rel.obj"), "-o", str(d / "flat.obj"), "-q"]) == 0
     assert main(["refold", str(d / "flat.obj"), str(d / "rel.obj"), "-o", str(d / "seq.fold"), "--frames", "5",
@@ -38,6 +37,12 @@ def panel(tmp_path_factory):
     model, _ = load_fold_model(d / "seq.fold", None)
     placement = placement_for(cell, model)
     return d / "seq.fold", placed_cell(cell, placement), planning_frames(model, None), clamped_faces_of(model), placement
+
+
+@pytest.fixture(scope="module")
+def panel(tmp_path_factory):
+    """A plain one-crease 60 deg panel (no tags), `_make_panel`."""
+    return _make_panel(tmp_path_factory.mktemp("phased"), plain(reflect_tagged(1, 60.0)))
 
 
 def _plan(panel, specs):
@@ -131,3 +136,27 @@ def test_resume_inside_a_later_phase_knows_the_gripper(panel):
     assert holding == fold_moves                       # closed on every fold move of both phases
     transfer = range(ph[0]["waypoints"][1] + 1, ph[1]["waypoints"][0] + 2)  # up to phase 1's grip: open
     assert not any(tool.holding_at(k) for k in transfer)
+
+
+def test_permuted_panel_gets_the_same_phases(panel, tmp_path):
+    """Vertex and face order permuted: the same regrip split, grip face (up to the permutation),
+    phases and joints."""
+    from robot.grip_choice import grip_order
+    from robot.phased_planner import regrip_splits
+
+    mesh, _, order = shuffled(plain(reflect_tagged(1, 60.0)), seed=5)
+    other = _make_panel(tmp_path, mesh)
+    new_of_old = np.argsort(order)
+    runs = []
+    for p in (panel, other):
+        face = grip_order(p[2])[0]
+        k = regrip_splits(p[2], face)[0]
+        res, _ = _plan(p, [("front", 0, k), ("front", k, p[2].n_states - 1)])
+        runs.append((face, k, res.toolpath))
+    (f0, k0, a), (f1, k1, b) = runs
+    assert f1 == int(new_of_old[f0]) and k0 == k1
+    assert [(p["side"], p["states"], p["waypoints"]) for p in a.extra["phases"]] == \
+        [(p["side"], p["states"], p["waypoints"]) for p in b.extra["phases"]]
+    assert [p["face"] for p in b.extra["phases"]] == [int(new_of_old[p["face"]]) for p in a.extra["phases"]]
+    assert [w.op for w in a.waypoints] == [w.op for w in b.waypoints]
+    assert np.abs(a.joints - b.joints).max() <= 1e-6
