@@ -31,10 +31,10 @@ from fabkit.errors import InputError
 from robot.holds_record import HOLDING_OPS
 from robot.transfer import TRANSFER_LIFTS, TransferError, lifted_waypoint
 
-__all__ = ["PhaseSpec", "plan_phases", "phases_of", "regrip_splits", "plan_regrip", "with_regrip", "REGRIP_SPLITS_TRIED"]
+__all__ = ["PhaseSpec", "plan_phases", "phases_of", "regrip_splits", "plan_regrip", "regrip_faces", "with_regrip", "REGRIP_SPLITS_TRIED"]
 
 #: Split states tried per face for a same-crease regrip (nearest a 90 deg turn of the grip face first).
-REGRIP_SPLITS_TRIED = 2
+REGRIP_SPLITS_TRIED = 1
 
 
 @dataclass(frozen=True)
@@ -72,10 +72,11 @@ def plan_phases(cell, frames, specs, *, options, source: dict | None = None, cla
     `frames` (`fabkit.frames.FaceFrames`) in `cell` -> `robot.planner.PlanResult` of the whole
     program (module docstring). `options`: the planner's `PlanOptions` (its `grip_side` is each
     phase's); `standoffs`: {side: grip standoff} (default `options.grip_standoff`); `lifts`: the
-    transfer's lifts over the retract and the next approach, tried in order (`robot.transfer`);
+    transfer's lifts over the retract and over the next approach, each the first its branch reaches
+    (none: that leg goes straight; `robot.transfer`);
     `via_home`: the transfer passes through the home configuration. Raises
-    `robot.planner.PlanningError` for the first phase that does not plan, its waypoint numbered in
-    the whole program."""
+    `robot.planner.PlanningError` for the first phase that does not plan (its waypoint numbered
+    from the phase's start in the whole program, before the transfers)."""
     from robot.motion import toolpath_cycle_time
     from robot.planner import PlanningError, PlanResult, plan_toolpath
     from robot.toolpath import Toolpath
@@ -93,7 +94,7 @@ def plan_phases(cell, frames, specs, *, options, source: dict | None = None, cla
             raise PlanningError(exc.waypoint + offset, exc.op, exc.state + p.first, exc.kind,
                                 f"phase {k} ({p.side} side, face {p.face}): {exc.detail}") from None
         parts.append(res)
-        offset += len(res.toolpath.waypoints) + (1 if via_home else 0) - (1 if k + 1 < len(specs) else 0)
+        offset += len(res.toolpath.waypoints) - (1 if k + 1 < len(specs) else 0)
     if len(parts) == 1:
         return parts[0]
     waypoints, rows, phases = [], [], []
@@ -101,18 +102,9 @@ def plan_phases(cell, frames, specs, *, options, source: dict | None = None, cla
         shifted = [replace(w, state=w.state + p.first) for w in res.toolpath.waypoints]
         if k:   # the transfer: lift off the retract, home, over the next approach (robot.transfer)
             home = shifted[0]
-            up, why = None, ""
-            for h in lifts:   # the highest lift both legs reach on their branches
-                try:
-                    up = [lifted_waypoint(cell, waypoints[-2], h, v=home.v, a=home.a),
-                          *([replace(home, state=waypoints[-1].state)] if via_home else []),
-                          lifted_waypoint(cell, shifted[1], h, v=home.v, a=home.a)]
-                    break
-                except TransferError as exc:
-                    why = str(exc)
-            if up is None:
-                raise PlanningError(len(waypoints) - 1, "home", waypoints[-1].state, "unreachable",
-                                    f"transfer to phase {k}: {why}")
+            off = _first_lift(cell, waypoints[-2], lifts, home)      # over the retract
+            on = _first_lift(cell, shifted[1], lifts, home)          # over the next approach
+            up = [*off, *([replace(home, state=waypoints[-1].state)] if via_home else []), *on]
             waypoints.pop()         # the phase before's home, now between the two lifts
             rows.pop()
             shifted = up + shifted[1:]
@@ -142,6 +134,17 @@ def plan_phases(cell, frames, specs, *, options, source: dict | None = None, cla
                       max_joint_step=max(r.max_joint_step for r in parts),
                       joint_speed_ratio=max(r.joint_speed_ratio for r in parts),
                       min_singularity=extra["checks"]["min_singularity"], cycle_time=total)
+
+
+def _first_lift(cell, wp, lifts, home) -> list:
+    """[the waypoint lifted over `wp` by the first of `lifts` its branch reaches], or [] (the transfer
+    leg goes straight to `wp`)."""
+    for h in lifts:
+        try:
+            return [lifted_waypoint(cell, wp, h, v=home.v, a=home.a)]
+        except TransferError:
+            continue
+    return []
 
 
 def phases_of(tp) -> list[dict] | None:
@@ -180,20 +183,52 @@ def regrip_splits(frames, face: int, tried: int = REGRIP_SPLITS_TRIED) -> list[i
     return [int(s) for s in order[:tried]]
 
 
-def plan_regrip(cell, frames, faces, *, options, source: dict | None = None, clamped_faces=(),
-                placement: dict | None = None, accept=None, back_standoff: float | None = None,
-                max_faces: int = 2):
-    """The same-crease regrip (module docstring): for the first `max_faces` of `faces` (the grip
-    order) and their `regrip_splits`, plan front 0..k then back k..last and return the first
-    program that `accept` (the checker) passes, as (PlanResult or None, tried) with tried
-    [(face, problem text)] of every candidate refused."""
+def regrip_faces(fold_model, clamped_faces, count: int = 2, min_travel: float = 1e-4, tested: int = 6) -> list[int]:
+    """Faces (polygon ids) a same-crease regrip grips, best first, at most `count`: faces that move
+    (their centroid travels more than `min_travel` [m] over the fold states), farthest travel
+    first (the most leverage, and on a bent strip the flattest surroundings toward its free end),
+    ties by the final centroid's coordinates (never by face or vertex order), each with the holds
+    proven (`fabkit.holds`) in every state with the clamped faces and that face held (the first
+    `tested` faces are tried: a panel that one grip cannot hold gets none)."""
+    from fabkit.frames import face_groups, fold_positions
+    from fabkit.hold_model_fold import hold_model_from_fold
+    from fabkit.holds import holds_along
+
+    g = face_groups(fold_model.faces_vertices, fold_model.faces_data)
+    P = fold_positions(fold_model)
+    C = np.stack([P[:, v].mean(axis=1) for v in g.vertices], axis=1)          # (S, faces, 3)
+    travel = np.linalg.norm(C - C[:1], axis=2).max(axis=0)
+    clamped = {int(f) for f in clamped_faces}
+    keys = [(-round(float(t), 9), *np.round(C[-1, i], 9).tolist()) for i, t in enumerate(travel)]
+    order = [i for i in sorted(range(len(travel)), key=lambda i: keys[i])
+             if travel[i] > min_travel and int(g.ids[i]) not in clamped]
+    model, angles = hold_model_from_fold(fold_model)
+    if len(P) == len(angles) + 1:        # a flat key frame put first (fabkit.frames.fold_positions)
+        angles = np.vstack([np.zeros_like(angles[:1]), angles])
+    out = []
+    for i in order[:tested]:
+        held = tuple(sorted(clamped | {int(g.ids[i])}))
+        if all(rep.ok for _, rep in holds_along(model, angles, held, between=0)):
+            out.append(int(g.ids[i]))
+            if len(out) == count:
+                break
+    return out
+
+
+def plan_regrip(cell, frames_of, faces, *, options, source: dict | None = None, clamped_faces=(),
+                placement: dict | None = None, accept=None, back_standoff: float | None = None):
+    """The same-crease regrip (module docstring): for each of `faces` (`regrip_faces`) with its
+    frames `frames_of(face)` (`fabkit.frames.FaceFrames`) and its `regrip_splits`, plan front
+    0..k then back k..last and return the first program that `accept` (the checker) passes, as
+    (PlanResult or None, tried) with tried [(face, problem text)] of every candidate refused."""
     from robot.planner import PlanningError
 
-    last = frames.n_states - 1
     tried = []
     standoffs = {"front": options.grip_standoff,
                  "back": options.grip_standoff if back_standoff is None else float(back_standoff)}
-    for face in list(faces)[:max_faces]:
+    for face in faces:
+        frames = frames_of(face)
+        last = frames.n_states - 1
         for k in regrip_splits(frames, face):
             specs = (PhaseSpec(face, "front", 0, k), PhaseSpec(face, "back", k, last))
             try:
@@ -209,14 +244,15 @@ def plan_regrip(cell, frames, faces, *, options, source: dict | None = None, cla
     return None, tried
 
 
-def with_regrip(cell, frames, *, options, source: dict | None = None, clamped_faces=(), placement: dict | None = None,
+def with_regrip(cell, frames, fold_model, *, options, source: dict | None = None, clamped_faces=(), placement: dict | None = None,
                 accept, variants=()):
     """`robot.grip_choice.plan_panel` with the checker `accept`, and when no single grip passes
-    (none plans, or the checker refuses every one) the same-crease regrip (`plan_regrip`, the back
-    side at the standoff of the back-side variant in `variants`). Returns the first program that
+    (none plans, or the checker refuses every one) the same-crease regrip (`plan_regrip` on the
+    `regrip_faces` of `fold_model`, the panel's FOLD model; the back side at the standoff of the
+    back-side variant in `variants`). Returns the first program that
     passes, else the single-grip program the check will refuse (its `tried` naming the regrips
     refused too); raises `PlanningError` when nothing plans."""
-    from robot.grip_choice import grip_order, plan_panel
+    from robot.grip_choice import plan_panel
     from robot.planner import PlanningError
 
     verdicts = {}
@@ -232,8 +268,12 @@ def with_regrip(cell, frames, *, options, source: dict | None = None, clamped_fa
         single, failure = None, exc
     if single is not None and verdicts.get(id(single.toolpath)) is None:
         return single
+    from fabkit.frames import face_frames_of
+
     back = next(v for v in variants if v.grip_side == "back")
-    res, tried = plan_regrip(cell, frames, grip_order(frames), options=options, source=source,
+    middle = {int(f) for f in frames.faces}
+    res, tried = plan_regrip(cell, lambda f: frames if f in middle else face_frames_of(fold_model, f),
+                             regrip_faces(fold_model, clamped_faces), options=options, source=source,
                              clamped_faces=clamped_faces, placement=placement, accept=accept,
                              back_standoff=back.grip_standoff)
     before = single.tried if single is not None else ()

@@ -37,7 +37,7 @@ def plan_in_cell(cell, fold_model, frames, *, grip_face: int | None = None, opti
                               clamped_faces=clamped, placement=placement, accept=accept, variants=variants)
         from robot.phased_planner import with_regrip
 
-        return with_regrip(placed, frames, options=options, source=source, clamped_faces=clamped,
+        return with_regrip(placed, frames, fold_model, options=options, source=source, clamped_faces=clamped,
                            placement=placement, accept=accept, variants=variants)
     if sheet:
         raise InputError("a sheet material (springback compensation, fold loads) is planned for one-arm cells only",

@@ -2,7 +2,8 @@
 
 After a phase's retract the arm lifts straight up (world +z) by `lift`, moves to the cell's home
 configuration, moves to the point `lift` above the next phase's approach pose and goes down onto
-the approach: every leg is a joint move (`movej`) between configurations of one branch. The lifted
+the approach: every leg is a joint move (`movej`) between configurations of one branch (a lifted
+point the waypoint's branch does not reach is left out: that leg goes straight). The lifted
 points keep the tool's orientation of the approach/retract they stand over, so the legs beside the
 panel are short vertical joint moves, and the long swing to and from home happens above the
 panel. Whether the legs clear the panel in its current fold state, the fixture and the table is
