@@ -52,7 +52,7 @@ def _score_segments(dxf_path, flat):
     return out
 
 
-def _pipeline(tmp_path, tagged, variant):
+def _pipeline(tmp_path, tagged, variant, cell=CELL):
     mesh, ids = _user_mesh(tagged, variant)
     p = tmp_path / "panel.obj"
     save_obj(mesh, p)
@@ -63,7 +63,7 @@ def _pipeline(tmp_path, tagged, variant):
     rr = tmp_path / "refold.json"
     assert main(["refold", str(flat), str(rel), "-o", str(seq), "--frames", "5", "--report", str(rr), "-q"]) == 0
     tr = tmp_path / "toolpath.json"
-    assert main(["toolpath", str(seq), "--cell", CELL, "-o", str(path), "--report", str(tr), "-q"]) == 0
+    assert main(["toolpath", str(seq), "--cell", cell, "-o", str(path), "--report", str(tr), "-q"]) == 0
     truth = true_creases(tagged)
     ef = tagged.edge_faces[truth]
     row = np.minimum(tagged.face_data["strip"][ef[:, 0]], tagged.face_data["strip"][ef[:, 1]])
@@ -138,3 +138,22 @@ def test_plain_panels_all_variants(tmp_path, n, fold, variant, send):
     every time)."""
     *_, path = _pipeline(tmp_path, reflect_tagged(n, fold), variant)
     _check_and_send(tmp_path, path, send=send, arm_hits_panel=fold >= 175.0)
+
+
+@pytest.mark.slow
+def test_a_175_deg_fold_is_folded_by_a_regrip_on_the_ur10e(tmp_path):
+    """The shuffled one-crease 175 deg panel in the UR10e fold-table cell: no single grip passes the
+    check (the front grip closes the wing over the cup, the back of the flat panel is out of reach),
+    so the program regrips: front side to a wing standing up, back side to 175 deg, on one face,
+    with the holds proven in both phases and the transfer checked."""
+    cell = str(Path(CELL).parent / "ur10e_fold_table.toml")
+    *_, path = _pipeline(tmp_path, reflect_tagged(1, 175.0), "shuffled", cell=cell)
+    doc = json.loads(path.read_text())
+    phases = doc["phases"]
+    assert [p["side"] for p in phases] == ["front", "back"] and len({p["face"] for p in phases}) == 1
+    assert phases[0]["states"][1] == phases[1]["states"][0] and phases[1]["states"][1] == doc["source"]["states"] - 1
+    check = tmp_path / "check.json"
+    assert main(["check", str(path), "--cell", cell, "-o", str(check), "-q"]) == 0
+    rep = json.loads(check.read_text())
+    assert rep["ok"] and rep["holds"]["ok"] and rep["phases"]["ok"]
+    assert all(e["holds_proven"] for e in rep["phases"]["phases"])
