@@ -206,6 +206,9 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
                            variants=variants,
                            sheet=compensated is not None, fold_file=fold_file)
     except PlanningError as exc:
+        if compensated is not None:   # robot.phased_planner: rigid programs only
+            notes.append("no regrip in phases was tried: springback between a release and the regrip is not "
+                         "modelled for a sheet")
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),),
                        records=(exc.as_problem(),), notes=tuple(notes), **common)
     from robot.jig_holds import with_jig_holds

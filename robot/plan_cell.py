@@ -2,7 +2,8 @@
 
 `plan_in_cell` is what `fabkit toolpath` and `fabkit.pipeline.plan` call. It puts the FOLD file's
 clamped face on the cell's clamp (`robot.panel_placement`), records the clamped faces, and plans
-with `robot.grip_choice.plan_panel` for a one-arm cell (PATH.json `fabkit.toolpath/2`) or with
+with `robot.grip_choice.plan_panel` for a one-arm cell (PATH.json `fabkit.toolpath/2`; when every
+grip of one side fails, a same-crease regrip in phases, `robot.phased_planner.with_regrip`) or with
 `robot.two_arm_planner.plan_two_arms` for a cell with two arms (`fabkit.toolpath/3`).
 """
 from __future__ import annotations
@@ -30,8 +31,14 @@ def plan_in_cell(cell, fold_model, frames, *, grip_face: int | None = None, opti
     placed = placed_cell(cell, placement)
     clamped = clamped_faces_of(fold_model)
     if len(cell.arms) == 1:
-        return plan_panel(placed, frames, grip_face=grip_face, options=options, source=source,
-                          clamped_faces=clamped, placement=placement, accept=accept, variants=variants)
+        if accept is None or grip_face is not None or sheet or options.grip_side != "front" or not any(
+                v.grip_side == "back" for v in variants):
+            return plan_panel(placed, frames, grip_face=grip_face, options=options, source=source,
+                              clamped_faces=clamped, placement=placement, accept=accept, variants=variants)
+        from robot.phased_planner import with_regrip
+
+        return with_regrip(placed, frames, fold_model, options=options, source=source, clamped_faces=clamped,
+                           placement=placement, accept=accept, variants=variants)
     if sheet:
         raise InputError("a sheet material (springback compensation, fold loads) is planned for one-arm cells only",
                          source=cell.source or None)

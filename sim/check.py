@@ -70,9 +70,11 @@ class CheckReport:
     panel_collisions: dict | None = None  # sim.check_panel_collisions (None: no panel)
     arms: dict | None = None      # a program for several arms: per arm (`sim.check_arms`); None for one arm
     lockstep: dict | None = None  # a program for several arms: sync, timing, arm against arm
+    phases: dict | None = None    # a one-arm program in phases: per phase (`sim.check_phases`); None for one
 
     def to_json(self) -> dict:
         multi = {} if self.arms is None else {"arms": self.arms, "lockstep": self.lockstep}
+        multi.update({} if self.phases is None else {"phases": self.phases})
         return {**multi, 
             "format": FORMAT,
             "toolpath_sha256": self.toolpath_sha256,
@@ -264,8 +266,16 @@ def _with_panel_checks(report: CheckReport, tp, prog: Program, cell, model, fold
     problems = tuple(sorted(report.problems + holds.problems + panel.problems + jig_problems +
                             clamp_problems(model, cell, holds.record["clamped_faces"], len(tp)),
                             key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
-    return replace(report, problems=problems, ok=not problems, holds=holds.record,
-                   panel_collisions=panel.record, notes=report.notes + holds.notes)
+    report = replace(report, problems=problems, ok=not problems, holds=holds.record,
+                     panel_collisions=panel.record, notes=report.notes + holds.notes)
+    from sim.check_phases import phases_check
+
+    phases, phase_problems = phases_check(tp, report)   # a program in phases: per phase (None: one)
+    if phases is None:
+        return report
+    problems = tuple(sorted(report.problems + phase_problems, key=lambda p: (p.waypoint, KINDS.index(p.kind),
+                                                                               p.subject)))
+    return replace(report, problems=problems, ok=not problems, phases=phases)
 
 
 def check_toolpath(toolpath, cell, *, fold: str | Path | None = None, use_panel: bool = True,

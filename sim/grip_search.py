@@ -5,7 +5,7 @@ and takes the first that plans; a face that plans can still fail the check (the 
 hits the panel, a wing left free). `checked_acceptor` gives the planner the full check of each
 candidate (`sim.check.check_toolpath`, exactly what `fabkit check` runs, panel from the FOLD
 file), so the first face whose program passes is chosen. At most `MAX_CHECKS` candidates are
-checked per grip side (each check takes a fraction of a second to seconds; the planner tries
+checked per grip side, and per plan at most `MAX_CHECKS["regrip"]` programs in phases (each check takes a fraction of a second to seconds; the planner tries
 every face on the front side before the back side, `robot.grip_choice`); when none passes, the
 planner returns the first that planned and the check stage names its problems.
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 __all__ = ["checked_acceptor", "MAX_CHECKS"]
 
 #: Candidates checked at most per plan and grip side.
-MAX_CHECKS = {"front": 4, "back": 1}
+MAX_CHECKS = {"front": 4, "back": 1, "regrip": 2}
 
 
 def checked_acceptor(cell, fold_file: str | Path, max_checks: dict | None = None):
@@ -34,7 +34,8 @@ def checked_acceptor(cell, fold_file: str | Path, max_checks: dict | None = None
     fold_model = load_fold(fold_file) if getattr(cell, "jigs", ()) else None
 
     def accept(res) -> str | None:
-        side = str(res.toolpath.extra.get("grip", {}).get("side", "front"))
+        side = ("regrip" if "phases" in res.toolpath.extra  # a program in phases (robot.phased_planner)
+                else str(res.toolpath.extra.get("grip", {}).get("side", "front")))
         checked = done.setdefault(side, [])
         if len(checked) >= budget.get(side, 0):
             return (f"not checked (the first {budget.get(side, 0)} candidates that planned on the {side} side "

@@ -52,7 +52,7 @@ def _score_segments(dxf_path, flat):
     return out
 
 
-def _pipeline(tmp_path, tagged, variant):
+def _pipeline(tmp_path, tagged, variant, cell=CELL):
     mesh, ids = _user_mesh(tagged, variant)
     p = tmp_path / "panel.obj"
     save_obj(mesh, p)
@@ -63,7 +63,7 @@ def _pipeline(tmp_path, tagged, variant):
     rr = tmp_path / "refold.json"
     assert main(["refold", str(flat), str(rel), "-o", str(seq), "--frames", "5", "--report", str(rr), "-q"]) == 0
     tr = tmp_path / "toolpath.json"
-    assert main(["toolpath", str(seq), "--cell", CELL, "-o", str(path), "--report", str(tr), "-q"]) == 0
+    assert main(["toolpath", str(seq), "--cell", cell, "-o", str(path), "--report", str(tr), "-q"]) == 0
     truth = true_creases(tagged)
     ef = tagged.edge_faces[truth]
     row = np.minimum(tagged.face_data["strip"][ef[:, 0]], tagged.face_data["strip"][ef[:, 1]])
@@ -90,7 +90,9 @@ def _check_and_send(tmp_path, path, send: bool, arm_hits_panel: bool = False):
     other), then with `send` a dry-run `fabkit send` to the controller stand-in. `arm_hits_panel`:
     a 175 deg valley fold closes the wing over a cup on the front side, and on the bench cell the
     arm cannot grip the back instead (under a panel 0.3 m over the bench every branch meets the
-    bench or the panel): the holds are proven, but the check refuses the arm inside the panel."""
+    bench or the panel), nor a regrip (front to a wing standing up, then back: on this cell the back
+    phase meets the panel or the transfer finds no configuration): the holds are proven, but the
+    check refuses the arm inside the panel."""
     from _ursim import StandIn
 
     check = tmp_path / "check.json"
@@ -101,6 +103,7 @@ def _check_and_send(tmp_path, path, send: bool, arm_hits_panel: bool = False):
         assert any(p["kind"] == "collision" and p["pair"][1].startswith("face_") for p in rep["problems"])
         tried = json.loads((tmp_path / "toolpath.json").read_text())["faces_tried"]
         assert any(t["problem"].startswith("back side: check:") for t in tried), tried  # both sides tried
+        assert any(t["problem"].startswith("regrip front->back") for t in tried), tried  # and a regrip
         return
     assert rc == 0 and rep["ok"], [p["detail"] for p in rep["problems"]]
     assert rep["holds"]["ok"] and all(s["ok"] for s in rep["holds"]["states"]) and rep["panel_collisions"]["ok"]
@@ -135,3 +138,22 @@ def test_plain_panels_all_variants(tmp_path, n, fold, variant, send):
     every time)."""
     *_, path = _pipeline(tmp_path, reflect_tagged(n, fold), variant)
     _check_and_send(tmp_path, path, send=send, arm_hits_panel=fold >= 175.0)
+
+
+@pytest.mark.slow
+def test_a_175_deg_fold_is_folded_by_a_regrip_on_the_ur10e(tmp_path):
+    """The shuffled one-crease 175 deg panel in the UR10e fold-table cell: no single grip passes the
+    check (the front grip closes the wing over the cup, the back of the flat panel is out of reach),
+    so the program regrips: front side to a wing standing up, back side to 175 deg, on one face,
+    with the holds proven in both phases and the transfer checked."""
+    cell = str(Path(CELL).parent / "ur10e_fold_table.toml")
+    *_, path = _pipeline(tmp_path, reflect_tagged(1, 175.0), "shuffled", cell=cell)
+    doc = json.loads(path.read_text())
+    phases = doc["phases"]
+    assert [p["side"] for p in phases] == ["front", "back"] and len({p["face"] for p in phases}) == 1
+    assert phases[0]["states"][1] == phases[1]["states"][0] and phases[1]["states"][1] == doc["source"]["states"] - 1
+    check = tmp_path / "check.json"
+    assert main(["check", str(path), "--cell", cell, "-o", str(check), "-q"]) == 0
+    rep = json.loads(check.read_text())
+    assert rep["ok"] and rep["holds"]["ok"] and rep["phases"]["ok"]
+    assert all(e["holds_proven"] for e in rep["phases"]["phases"])

@@ -1,0 +1,286 @@
+"""One-arm programs in phases: grip, fold some states, release, regrip (another face or side), fold on.
+
+A phased program is one toolpath whose waypoints run phase after phase. Each phase is a complete
+one-arm program over a span of the FOLD file's fold states (`robot.planner.plan_toolpath` on that
+span of its grip face's frames): approach, grip, fold through the span, release, retract. Between
+phases the arm transfers by a joint move through the cell's home configuration (the one pose the
+planner knows to be clear of the panel and the fixture, `movej`), and the next phase starts with
+its own approach. Consecutive phases share a fold state (the last of one is the first of the
+next), so the panel does not move while the arm is off it: between release and regrip the creases
+keep the angles they have (a rigid panel, or aluminium that keeps its fold; springback between the
+release and the regrip is not modelled, so a sheet program is not planned in phases).
+
+PATH.json records the phases in `phases` (inside the whole-document hash): per phase its grip
+`face`, `side` ("front" | "back"), fold `states` [first, last] and `waypoints` [first, last]
+(approach .. retract). The `holds` record names the phase's grip face on every move that carries the
+panel. A program of one phase has no `phases` key: it is exactly the program `plan_toolpath`
+plans.
+
+The same-crease regrip (`regrip_splits`, `plan_regrip`): a fold that no single grip reaches (a
+175 deg valley closes the wing over a cup on the front; the back of the flat panel faces the bench)
+is folded on the front side to an intermediate state, where the grip face stands near vertical,
+released, and finished on the back side.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from fabkit.errors import InputError
+from robot.holds_record import HOLDING_OPS
+from robot.transfer import TRANSFER_LIFTS, TransferError, lifted_waypoint
+
+__all__ = ["PhaseSpec", "plan_phases", "phases_of", "regrip_splits", "plan_regrip", "regrip_faces", "with_regrip", "REGRIP_SPLITS_TRIED"]
+
+#: Split states tried per face for a same-crease regrip (nearest a 90 deg turn of the grip face first).
+REGRIP_SPLITS_TRIED = 1
+
+
+@dataclass(frozen=True)
+class PhaseSpec:
+    """One phase to plan: grip `face` (polygon id) on `side` ("front" | "back") through fold states
+    `first`..`last` (indices of the FOLD file's states, `first` < `last`)."""
+
+    face: int
+    side: str
+    first: int
+    last: int
+
+    def to_json(self) -> dict:
+        return {"face": int(self.face), "side": self.side, "states": [int(self.first), int(self.last)]}
+
+
+def _check_specs(specs, n_states: int) -> None:
+    if not specs:
+        raise InputError("a phased program needs at least one phase")
+    for k, p in enumerate(specs):
+        if p.side not in ("front", "back"):
+            raise InputError(f"phase {k}: grip side must be front or back, got {p.side!r}")
+        if not 0 <= p.first < p.last <= n_states - 1:
+            raise InputError(f"phase {k}: fold states {p.first}..{p.last} are not a span of states 0..{n_states - 1}")
+        if k and p.first != specs[k - 1].last:
+            raise InputError(f"phase {k} starts at fold state {p.first}, the phase before ends at {specs[k - 1].last}")
+    if specs[0].first != 0 or specs[-1].last != n_states - 1:
+        raise InputError(f"the phases must run from fold state 0 to {n_states - 1}")
+
+
+def plan_phases(cell, frames, specs, *, options, source: dict | None = None, clamped_faces=(),
+                placement: dict | None = None, standoffs: dict | None = None, lifts=TRANSFER_LIFTS,
+                via_home: bool = True):
+    """Plan the phases `specs` (`PhaseSpec`, covering the states in order) for the middle-row frames
+    `frames` (`fabkit.frames.FaceFrames`) in `cell` -> `robot.planner.PlanResult` of the whole
+    program (module docstring). `options`: the planner's `PlanOptions` (its `grip_side` is each
+    phase's); `standoffs`: {side: grip standoff} (default `options.grip_standoff`); `lifts`: the
+    transfer's lifts over the retract and over the next approach, each the first its branch reaches
+    (none: that leg goes straight; `robot.transfer`);
+    `via_home`: the transfer passes through the home configuration. Raises
+    `robot.planner.PlanningError` for the first phase that does not plan (its waypoint numbered
+    from the phase's start in the whole program, before the transfers)."""
+    from robot.motion import toolpath_cycle_time
+    from robot.planner import PlanningError, PlanResult, plan_toolpath
+    from robot.toolpath import Toolpath
+
+    specs = tuple(specs)
+    _check_specs(specs, frames.n_states)
+    parts, offset = [], 0
+    for k, p in enumerate(specs):
+        opt = replace(options, grip_side=p.side,
+                      grip_standoff=(standoffs or {}).get(p.side, options.grip_standoff))
+        try:
+            res = plan_toolpath(cell, frames.of_face(p.face)[p.first:p.last + 1], options=opt, grip_face=p.face,
+                                clamped_faces=clamped_faces, placement=placement, source=source)
+        except PlanningError as exc:
+            raise PlanningError(exc.waypoint + offset, exc.op, exc.state + p.first, exc.kind,
+                                f"phase {k} ({p.side} side, face {p.face}): {exc.detail}") from None
+        parts.append(res)
+        offset += len(res.toolpath.waypoints) - (1 if k + 1 < len(specs) else 0)
+    if len(parts) == 1:
+        return parts[0]
+    waypoints, rows, phases = [], [], []
+    for k, (p, res) in enumerate(zip(specs, parts)):
+        shifted = [replace(w, state=w.state + p.first) for w in res.toolpath.waypoints]
+        if k:   # the transfer: lift off the retract, home, over the next approach (robot.transfer)
+            home = shifted[0]
+            off = _first_lift(cell, waypoints[-2], lifts, home)      # over the retract
+            on = _first_lift(cell, shifted[1], lifts, home)          # over the next approach
+            up = [*off, *([replace(home, state=waypoints[-1].state)] if via_home else []), *on]
+            waypoints.pop()         # the phase before's home, now between the two lifts
+            rows.pop()
+            shifted = up + shifted[1:]
+        start = len(waypoints)
+        waypoints += shifted
+        ops = [w.op for w in shifted]
+        rows += [int(p.face) if op in HOLDING_OPS else None for op in ops]
+        first = start + ops.index("approach")
+        last = start + len(ops) - 1 - ops[::-1].index("retract")
+        phases.append({**p.to_json(), "waypoints": [first, last]})
+    head = parts[0].toolpath
+    extra = dict(head.extra)
+    extra["holds"] = {**head.extra["holds"], "arms": {"a": rows}}
+    extra["phases"] = phases
+    checks = [r.toolpath.extra["checks"] for r in parts]
+    extra["checks"] = {**checks[0],
+                       **{k: max(c[k] for c in checks) for k in ("max_joint_step_rad", "max_fold_joint_step_rad",
+                                                                  "joint_speed_ratio")},
+                       "min_singularity": {k: min(c["min_singularity"][k] for c in checks)
+                                           for k in checks[0]["min_singularity"]}}
+    tp = Toolpath(robot=head.robot, cell=head.cell, tcp=head.tcp, source=head.source, waypoints=tuple(waypoints),
+                  extra=extra, cell_sha256=head.cell_sha256)
+    total = toolpath_cycle_time(tp).total
+    tp = Toolpath(robot=head.robot, cell=head.cell, tcp=head.tcp, source=head.source, waypoints=tuple(waypoints),
+                  extra={**extra, "cycle_time_s": total}, cell_sha256=head.cell_sha256)
+    return PlanResult(toolpath=tp, grip_face=int(specs[0].face), branch=parts[0].branch,
+                      max_joint_step=max(r.max_joint_step for r in parts),
+                      joint_speed_ratio=max(r.joint_speed_ratio for r in parts),
+                      min_singularity=extra["checks"]["min_singularity"], cycle_time=total)
+
+
+def _first_lift(cell, wp, lifts, home) -> list:
+    """[the waypoint lifted over `wp` by the first of `lifts` its branch reaches], or [] (the transfer
+    leg goes straight to `wp`)."""
+    for h in lifts:
+        try:
+            return [lifted_waypoint(cell, wp, h, v=home.v, a=home.a)]
+        except TransferError:
+            continue
+    return []
+
+
+def phases_of(tp) -> list[dict] | None:
+    """The validated `phases` record of a toolpath (None for a program of one phase); `ValueError`
+    naming the key for a malformed one."""
+    ph = tp.extra.get("phases") if isinstance(tp.extra, dict) else None
+    if ph is None:
+        return None
+    n = len(tp.waypoints)
+
+    def pair(v, top):
+        return (isinstance(v, list) and len(v) == 2 and all(isinstance(x, int) and not isinstance(x, bool)
+                                                            for x in v) and 0 <= v[0] <= v[1] <= top)
+
+    if not isinstance(ph, list) or len(ph) < 2:
+        raise ValueError("phases: expected a list of two or more phases")
+    for k, p in enumerate(ph):
+        if not (isinstance(p, dict) and isinstance(p.get("face"), int) and p.get("side") in ("front", "back")
+                and pair(p.get("states"), 10**6) and pair(p.get("waypoints"), n - 1)):
+            raise ValueError(f"phases[{k}]: expected {{face, side: front|back, states: [first, last], "
+                             "waypoints: [first, last]}")
+        if k and p["waypoints"][0] <= ph[k - 1]["waypoints"][1]:
+            raise ValueError(f"phases[{k}]: its waypoints overlap the phase before")
+    return ph
+
+
+def regrip_splits(frames, face: int, tried: int = REGRIP_SPLITS_TRIED) -> list[int]:
+    """Inner fold states at which a same-crease regrip of `face` may change side, best first: the
+    grip face's normal nearest a quarter turn from the flat state (the wing stands up: its back is
+    open to the arm, and the front grip has not closed it over the cup yet)."""
+    F = frames.of_face(face)
+    z = F[:, :3, 2]
+    turn = np.degrees(np.arccos(np.clip(z @ z[0], -1.0, 1.0)))
+    inner = np.arange(1, len(F) - 1)
+    order = inner[np.argsort(np.abs(turn[inner] - 90.0), kind="stable")]
+    return [int(s) for s in order[:tried]]
+
+
+def regrip_faces(fold_model, clamped_faces, count: int = 2, min_travel: float = 1e-4, tested: int = 6) -> list[int]:
+    """Faces (polygon ids) a same-crease regrip grips, best first, at most `count`: faces that move
+    (their centroid travels more than `min_travel` [m] over the fold states), farthest travel
+    first (the most leverage, and on a bent strip the flattest surroundings toward its free end),
+    ties by the final centroid's coordinates (never by face or vertex order), each with the holds
+    proven (`fabkit.holds`) in every state with the clamped faces and that face held (the first
+    `tested` faces are tried: a panel that one grip cannot hold gets none)."""
+    from fabkit.frames import face_groups, fold_positions
+    from fabkit.hold_model_fold import hold_model_from_fold
+    from fabkit.holds import holds_along
+
+    g = face_groups(fold_model.faces_vertices, fold_model.faces_data)
+    P = fold_positions(fold_model)
+    C = np.stack([P[:, v].mean(axis=1) for v in g.vertices], axis=1)          # (S, faces, 3)
+    travel = np.linalg.norm(C - C[:1], axis=2).max(axis=0)
+    clamped = {int(f) for f in clamped_faces}
+    keys = [(-round(float(t), 9), *np.round(C[-1, i], 9).tolist()) for i, t in enumerate(travel)]
+    order = [i for i in sorted(range(len(travel)), key=lambda i: keys[i])
+             if travel[i] > min_travel and int(g.ids[i]) not in clamped]
+    model, angles = hold_model_from_fold(fold_model)
+    if len(P) == len(angles) + 1:        # a flat key frame put first (fabkit.frames.fold_positions)
+        angles = np.vstack([np.zeros_like(angles[:1]), angles])
+    out = []
+    for i in order[:tested]:
+        held = tuple(sorted(clamped | {int(g.ids[i])}))
+        if all(rep.ok for _, rep in holds_along(model, angles, held, between=0)):
+            out.append(int(g.ids[i]))
+            if len(out) == count:
+                break
+    return out
+
+
+def plan_regrip(cell, frames_of, faces, *, options, source: dict | None = None, clamped_faces=(),
+                placement: dict | None = None, accept=None, back_standoff: float | None = None):
+    """The same-crease regrip (module docstring): for each of `faces` (`regrip_faces`) with its
+    frames `frames_of(face)` (`fabkit.frames.FaceFrames`) and its `regrip_splits`, plan front
+    0..k then back k..last and return the first program that `accept` (the checker) passes, as
+    (PlanResult or None, tried) with tried [(face, problem text)] of every candidate refused."""
+    from robot.planner import PlanningError
+
+    tried = []
+    standoffs = {"front": options.grip_standoff,
+                 "back": options.grip_standoff if back_standoff is None else float(back_standoff)}
+    for face in faces:
+        frames = frames_of(face)
+        last = frames.n_states - 1
+        for k in regrip_splits(frames, face):
+            specs = (PhaseSpec(face, "front", 0, k), PhaseSpec(face, "back", k, last))
+            try:
+                res = plan_phases(cell, frames, specs, options=options, source={**(source or {}), "grip_face": face},
+                                  clamped_faces=clamped_faces, placement=placement, standoffs=standoffs)
+            except PlanningError as exc:
+                tried.append((face, f"regrip front->back at fold state {k}: {exc}"))
+                continue
+            problem = accept(res) if accept is not None else None
+            if problem is None:
+                return res, tried
+            tried.append((face, f"regrip front->back at fold state {k}: {problem}"))
+    return None, tried
+
+
+def with_regrip(cell, frames, fold_model, *, options, source: dict | None = None, clamped_faces=(), placement: dict | None = None,
+                accept, variants=()):
+    """`robot.grip_choice.plan_panel` with the checker `accept`, and when no single grip passes
+    (none plans, or the checker refuses every one) the same-crease regrip (`plan_regrip` on the
+    `regrip_faces` of `fold_model`, the panel's FOLD model; the back side at the standoff of the
+    back-side variant in `variants`). Returns the first program that
+    passes, else the single-grip program the check will refuse (its `tried` naming the regrips
+    refused too); raises `PlanningError` when nothing plans."""
+    from robot.grip_choice import plan_panel
+    from robot.planner import PlanningError
+
+    verdicts = {}
+
+    def judged(res):
+        verdicts[id(res.toolpath)] = problem = accept(res)
+        return problem
+
+    try:
+        single, failure = plan_panel(cell, frames, options=options, source=source, clamped_faces=clamped_faces,
+                                     placement=placement, accept=judged, variants=variants), None
+    except PlanningError as exc:
+        single, failure = None, exc
+    if single is not None and verdicts.get(id(single.toolpath)) is None:
+        return single
+    from fabkit.frames import face_frames_of
+
+    back = next(v for v in variants if v.grip_side == "back")
+    middle = {int(f) for f in frames.faces}
+    res, tried = plan_regrip(cell, lambda f: frames if f in middle else face_frames_of(fold_model, f),
+                             regrip_faces(fold_model, clamped_faces), options=options, source=source,
+                             clamped_faces=clamped_faces, placement=placement, accept=accept,
+                             back_standoff=back.grip_standoff)
+    before = single.tried if single is not None else ()
+    if res is not None:
+        return replace(res, tried=tuple(before) + tuple(tried))
+    if single is not None:
+        return replace(single, tried=tuple(before) + tuple(tried))
+    raise PlanningError(failure.waypoint, failure.op, failure.state, failure.kind,
+                        f"{failure.detail}; a regrip in phases did not plan either: "
+                        + "; ".join(t for _, t in tried))
