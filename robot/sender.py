@@ -76,6 +76,7 @@ class ArmSender:
         self._log = log or (lambda e: None)
         self._on_progress = on_progress or (lambda k, st: None)
         self.worker: RTDEWorker | None = None
+        self.start = settings.resume_from  # a lockstep resume may start this arm at the meeting point
         self.last_completed = settings.resume_from - 1
         self.last_state: dict | None = None
         self._last_ts = None
@@ -93,8 +94,18 @@ class ArmSender:
 
     # ---- steps ----------------------------------------------------------------------------------
     def preflight(self) -> str:
-        return read_only_preflight(self.call, self.tp.robot, self.wps, self.s, self.event,
-                                   payload=self.tool.payload is not None)
+        verify = None
+        if self.lockstep is not None and self.s.resume_from > 0:
+            from robot.lockstep import resume_start
+
+            def verify(wps, k, q, tcp_pose, tol):
+                self.start = resume_start(wps, self.lockstep.sync, k, q, tcp_pose, tol, arm=self.arm)
+                self.last_completed = self.start - 1
+        version = read_only_preflight(self.call, self.tp.robot, self.wps, self.s, self.event,
+                                      payload=self.tool.payload is not None, verify=verify)
+        if self.lockstep is not None:
+            self.lockstep.meet(self.arm)  # every arm's read-only preflight passed before any changes
+        return version
 
     def prepare(self) -> None:
         prepare_controller(self.call, self.s)
@@ -288,7 +299,7 @@ class ArmSender:
             active = self.call("get_tcp")
             if len(active) != 6 or np.abs(np.subtract(active, self.tp.tcp)).max() > 1e-9:
                 raise _Fault(f"the controller's active TCP {active} is not the toolpath's {list(self.tp.tcp)}")
-            holding = self.tool.holding_at(s.resume_from)
+            holding = self.tool.holding_at(self.start)
             if self.tool.grip is not None:
                 self.tool.set_gripper(holding)
             self.tool.set_payload(holding)  # before the first motion (robot.send_tool)
@@ -300,7 +311,7 @@ class ArmSender:
             switch = [k for k, w in enumerate(self.wps) if w.op in ("grip", "release") or k in sync]
             if self.lockstep is not None:
                 self.lockstep.wait(self.arm, 0, self.poll)  # every arm ready before any moves
-            start, first = s.resume_from, True
+            start, first = self.start, True
             while True:
                 stop = min(start + max(2, s.chunk), n)
                 if first and start in switch:
@@ -369,8 +380,6 @@ def send_toolpath(toolpath, check, cell, settings: SendSettings, *, fold: str | 
         raise SendError(f"--resume-from {settings.resume_from}: the toolpath has waypoints 0-{n - 1}")
     if not hasattr(toolpath, "arms") and settings.hosts:
         raise SendError(f"--host: a one-arm program goes to one controller, got {1 + len(settings.hosts)} addresses")
-    if hasattr(toolpath, "arms") and settings.resume_from != 0:
-        raise SendError("--resume-from: a program for several arms starts at waypoint 0 (every arm at its start)")
     cleared = clear_for_send(toolpath, check, cell, fold=fold, base_dir=base_dir)
     for _, one in getattr(cleared.toolpath, "arms", (("a", cleared.toolpath),)):
         validate_waypoints(one.waypoints)

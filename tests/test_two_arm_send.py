@@ -1,9 +1,12 @@
 """Lockstep send of a two-arm program: two controller stand-ins on two loopback addresses, one
-ur_rtde worker per arm, every sync waypoint reached by both arms before either goes on, and a
-fault of one arm stopping both."""
+ur_rtde worker per arm, every sync waypoint reached by both arms before either goes on, a fault of
+one arm stopping both, and the resume after it (refused one or three waypoints off before anything
+on either controller changes; from the waypoint the send names, both arms meet at the next sync
+waypoint and finish the program)."""
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import threading
@@ -48,11 +51,11 @@ def standins(tmp_path):
             s.stop()
 
 
-def _send(program, checked, standins, tmp_path, **popen):
+def _send(program, checked, standins, tmp_path, *extra, **popen):
     log = tmp_path / "send.log"
     cmd = [sys.executable, "-m", "fabkit", "send", str(program.path_file), "--check", str(checked.check_file),
            "--cell", str(DUAL), "--host", standins["a"].host, "--host", standins["b"].host, "--log", str(log),
-           "--report", str(tmp_path / "send.json")]
+           "--report", str(tmp_path / "send.json"), *extra]
     return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen), log
 
 
@@ -120,6 +123,55 @@ def test_a_fault_on_one_arm_stops_both(job, standins, tmp_path):
     assert stop_a and stop_a[0] - fired["t"] < 1.0
     print(f"arm a stopped {stop_a[0] - fired['t']:.3f} s after the fault on arm b")
     assert any(e.get("step") == "done" and e["arm"] == "a" and "arm b stopped" in (e.get("reason") or "") for e in ev)
+    _resume_after_the_fault(program, checked, standins, tmp_path, err, report)
+
+
+LOADED = "RTDE Control Script Loaded"
+
+
+def _resume_after_the_fault(program, checked, standins, tmp_path, err, report):
+    """The resume the stopped send named: one and three waypoints past the last one both arms
+    accept are refused (exit 2, one line naming the arm) with arm b still in its protective stop
+    and no control script uploaded to either controller; the named one finishes the program."""
+    from robot.interlock import StartTolerances
+    from robot.lockstep import resume_start
+    from robot.path_chunks import SendError
+
+    atp = program.toolpath
+    told = int(re.search(r"continue with --resume-from (\d+)", err).group(1))
+    assert report["resume"]["resume_from"] == told and report["resume"]["meet_at"] in (*atp.sync, len(atp) - 1)
+    states = {arm: s.state() for arm, s in standins.items()}
+    accepted = []
+    for k in range(1, len(atp)):
+        try:
+            for arm, st in states.items():
+                resume_start(atp.arm(arm).waypoints, atp.sync, k, st["q"], st["tcp_pose"], StartTolerances(), arm)
+            accepted.append(k)
+        except SendError:
+            pass
+    assert told in accepted and accepted == list(range(accepted[0], accepted[-1] + 1)) and len(accepted) <= 2, \
+        (told, accepted)
+    uploads = {arm: s.log_text().count(LOADED) for arm, s in standins.items()}
+    for k in (accepted[-1] + 1, accepted[-1] + 3):
+        proc, _ = _send(program, checked, standins, tmp_path, "--resume-from", str(k), "--unlock")
+        _, refused = proc.communicate(timeout=120)
+        assert proc.returncode == 2 and f"--resume-from {k}:" in refused and "arm " in refused \
+            and refused.count("\n") == 1, refused
+        assert standins["b"].state()["safety_mode"] == "PROTECTIVE_STOP", "the refused resume unlocked arm b"
+        for arm, s in standins.items():
+            assert s.log_text().count(LOADED) == uploads[arm], f"the refused resume uploaded to arm {arm}"
+            assert s.state()["q"] == states[arm]["q"]
+    proc, log = _send(program, checked, standins, tmp_path, "--resume-from", str(told), "--unlock")
+    _, err = proc.communicate(timeout=240)
+    assert proc.returncode == 0, err
+    for arm, s in standins.items():
+        np.testing.assert_allclose(s.state()["q"], atp.arm(arm).waypoints[-1].q, atol=1e-4)
+    meet = report["resume"]["meet_at"]
+    ev = _events(log)
+    arrived = [e["t"] for e in ev if e.get("step") == "sync arrived" and e["waypoint"] == meet]
+    passed = [e["t"] for e in ev if e.get("step") == "sync passed" and e["waypoint"] == meet]
+    if meet in atp.sync:  # both arms meet there before either goes on
+        assert len(arrived) == len(passed) == 2 and max(arrived) <= min(passed) + 1e-3
 
 
 def _seconds_to_idle(standin, t0, limit=3.0) -> float:

@@ -107,9 +107,16 @@ def run(args) -> int:
     else:
         nxt = result.last_completed + 1
         per_arm = getattr(result, "last_completed_per_arm", None)
-        last = (", ".join(f"arm {a} {k}" for a, k in per_arm.items()) if per_arm else result.last_completed)
-        print(f"fabkit send: stopped: {result.reason}; last completed waypoint {last} of {n - 1}"
-              + (f"; continue with --resume-from {nxt}" if 0 <= nxt < n and not per_arm else ""), file=sys.stderr)
+        if per_arm:
+            resume = result.resume
+            last = ", ".join(f"arm {a} {k}" for a, k in per_arm.items())
+            hint = "" if resume is None else (f" (last sync waypoint {resume.last_sync}); {resume.describe()}"
+                                              if resume.last_sync >= 0 else f"; {resume.describe()}")
+        else:
+            last = result.last_completed
+            hint = f"; continue with --resume-from {nxt}" if 0 <= nxt < n else ""
+        print(f"fabkit send: stopped: {result.reason}; last completed waypoint {last} of {n - 1}{hint}",
+              file=sys.stderr)
     write_report(args, {"ok": result.ok, "sent": True, "host": args.host if len(hosts) == 1 else hosts,
                         "toolpath": args.toolpath,
                         "toolpath_sha256": tp.sha256, "resume_from": args.resume_from, **result.to_json()})
