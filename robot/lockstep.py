@@ -11,7 +11,13 @@ chunked `movePath`s), run in a thread of its own. They share one `Lockstep`:
   stream, its worker crashed or hung, a refused command), Ctrl-C or SIGTERM aborts the lockstep:
   every other arm's next poll (every `poll_s`) raises, and each arm stops as a single arm does
   (stopL, else the dashboard's `stop`). If this process dies, every controller's RTDE watchdog
-  stops its arm.
+  stops its arm;
+- an arm whose controller stops answering (one ur_rtde call that does not return: e.g. a movePath
+  whose control script the controller will not start under a protective stop, which ur_rtde waits
+  for up to the call's timeout) cannot see its own fault; so every arm's poll also checks the
+  others' last polls, and an arm silent for more than `silence_s` (default `PEER_SILENCE_S`) once
+  the send is under way aborts the lockstep, naming it. An arm that finished its program is not
+  watched.
 
 `ArmsSendResult` names, per arm, the last waypoint it completed, and `resume_point` the
 `--resume-from` that continues the send.
@@ -20,7 +26,8 @@ A resume (`SendSettings.resume_from` N) starts the arms from one sync point of t
 meeting point S is the first sync waypoint >= N (else the last waypoint). Each arm must either be
 on its path into waypoint N (`robot.interlock.verify_start`, the one-arm rule) and moves on from
 there, or stand at S (an arm that was waiting there for the other) and goes to S alone; any other
-arm refuses the resume (`robot.path_chunks.SendError` naming the arm) before anything on any
+arm refuses the resume (`robot.path_chunks.SendError` naming the arm), and so does a resume
+where no arm is on its path into N (every arm stands at S: N is S), before anything on any
 controller changes: every arm's read-only preflight passes before any arm unlocks, powers on or
 uploads. All arms meet at S, then go on in lockstep. Each arm's gripper and payload are those the
 program has while moving toward its start (`robot.send_tool.ToolControl.holding_at`).
@@ -35,22 +42,28 @@ from robot.path_chunks import SendError
 from robot.preflight import ControllerFault
 
 __all__ = ["Lockstep", "ArmsSendResult", "ResumePoint", "resume_point", "resume_start", "send_in_lockstep",
-           "SYNC_TIMEOUT_S"]
+           "SYNC_TIMEOUT_S", "PEER_SILENCE_S"]
 
 #: Longest wait [s] at a sync waypoint for another arm that neither arrives nor faults.
 SYNC_TIMEOUT_S = 120.0
+#: Longest time [s] an arm under way may go without a state poll before the others stop: a movePath
+#: upload took 0.12-0.42 s on the stand-ins on a loaded 2-core machine.
+PEER_SILENCE_S = 2.0
 
 
 class Lockstep:
     """The sync points and the abort flag shared by the arms of one send."""
 
-    def __init__(self, arms, sync, poll_s: float = 0.02, timeout_s: float = SYNC_TIMEOUT_S):
+    def __init__(self, arms, sync, poll_s: float = 0.02, timeout_s: float = SYNC_TIMEOUT_S,
+                 silence_s: float = PEER_SILENCE_S):
         self.arms, self.sync = tuple(arms), tuple(int(k) for k in sync)
-        self.poll_s, self.timeout_s = float(poll_s), float(timeout_s)
+        self.poll_s, self.timeout_s, self.silence_s = float(poll_s), float(timeout_s), float(silence_s)
+        self._beat: dict = {}  # arm -> monotonic time of its last poll, once under way
+        self._finished: set = set()
         self._cv = threading.Condition()
         self._at = {a: -1 for a in self.arms}
         self._abort: tuple[str, str] | None = None
-        self._ready: set = set()
+        self._ready: dict = {}  # arm -> whether it starts on its path into the resume waypoint
 
     @property
     def aborted(self) -> bool:
@@ -71,11 +84,34 @@ class Lockstep:
                 self._abort = (arm, reason or "stopped")
             self._cv.notify_all()
 
-    def meet(self, arm: str) -> None:
-        """Arm `arm` passed its read-only preflight: wait until every arm has (nothing polled:
-        nothing has been changed on any controller yet); raises on an abort or the timeout."""
+    def beat(self, arm: str) -> None:
+        """Arm `arm` polled its controller: raises `ControllerFault` on an abort, or (aborting the
+        lockstep) when another arm under way has not polled for more than `silence_s`."""
+        now = time.monotonic()
         with self._cv:
-            self._ready.add(arm)
+            if self._abort is None and self._at[arm] >= 0:
+                self._beat[arm] = now
+                for other, t in self._beat.items():
+                    if other != arm and other not in self._finished and now - t > self.silence_s:
+                        self._abort = (other, f"its controller did not answer for {now - t:.1f} s (a ur_rtde call "
+                                              "did not return)")
+                        self._cv.notify_all()
+                        break
+            if self._abort is not None:
+                raise ControllerFault(self.reason_for(arm))
+
+    def finished(self, arm: str) -> None:
+        """Arm `arm` completed its program (it polls no more)."""
+        with self._cv:
+            self._finished.add(arm)
+
+    def meet(self, arm: str, on_path: bool = True) -> bool:
+        """Arm `arm` passed its read-only preflight (`on_path`: it starts on its path into the
+        resume waypoint, not at the meeting point): wait until every arm has (nothing polled:
+        nothing has been changed on any controller yet); returns whether any arm is on its path.
+        Raises on an abort or the timeout."""
+        with self._cv:
+            self._ready[arm] = bool(on_path)
             self._cv.notify_all()
             deadline = time.monotonic() + self.timeout_s
             while True:
@@ -83,7 +119,7 @@ class Lockstep:
                     raise ControllerFault(self.reason_for(arm))
                 late = [a for a in self.arms if a not in self._ready]
                 if not late:
-                    return
+                    return any(self._ready.values())
                 if time.monotonic() > deadline:
                     raise ControllerFault(f"arm {late[0]} did not pass its preflight within {self.timeout_s:.0f} s")
                 self._cv.wait(timeout=self.poll_s)
@@ -93,6 +129,7 @@ class Lockstep:
         raises on this arm's faults and on an abort) every `poll_s`."""
         with self._cv:
             self._at[arm] = max(self._at[arm], k)
+            self._beat.setdefault(arm, time.monotonic())
             self._cv.notify_all()
         deadline = time.monotonic() + self.timeout_s
         while True:

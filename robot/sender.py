@@ -103,8 +103,11 @@ class ArmSender:
                 self.last_completed = self.start - 1
         version = read_only_preflight(self.call, self.tp.robot, self.wps, self.s, self.event,
                                       payload=self.tool.payload is not None, verify=verify)
-        if self.lockstep is not None:
-            self.lockstep.meet(self.arm)  # every arm's read-only preflight passed before any changes
+        if self.lockstep is not None:  # every arm's read-only preflight passed before any changes
+            k = self.s.resume_from
+            if not self.lockstep.meet(self.arm, on_path=self.start == k) and k > 0:
+                raise SendError(f"--resume-from {k}: no arm is on its path into waypoint {k}, every arm stands at "
+                                f"waypoint {self.start}: give --resume-from {self.start}")
         return version
 
     def prepare(self) -> None:
@@ -112,8 +115,8 @@ class ArmSender:
 
     def poll(self) -> dict:
         """One state sample; raises _Fault on stall, safety stop or a stopped program."""
-        if self.lockstep is not None and self.lockstep.aborted:
-            raise _Fault(self.lockstep.reason_for(self.arm))
+        if self.lockstep is not None:
+            self.lockstep.beat(self.arm)  # raises on an abort, or when another arm fell silent
         st = self.call("state", timeout=max(1.0, self.s.stall_s * 2))
         now = time.monotonic()
         if st["timestamp"] != self._last_ts:
@@ -328,6 +331,8 @@ class ArmSender:
                     break
                 start = stop - 1
             self.finish(result)
+            if self.lockstep is not None:
+                self.lockstep.finished(self.arm)
             result.ok = True
             self.call("stop_script")  # the arm rests on the last waypoint: end the control script
         except _Fault as exc:
