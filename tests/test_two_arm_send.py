@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests._ursim import ROOT, StandIn, external_host
+from tests._ursim import ROOT, StandIn, external_host, free_loopback_hosts
 
 DUAL = ROOT / "cells" / "dual_ur10e.toml"
 
@@ -24,14 +24,31 @@ pytestmark = pytest.mark.skipif(external_host() is not None, reason="two stand-i
 
 
 @pytest.fixture(scope="module")
-def job(tmp_path_factory):
-    """The middle-clamped tri-fold (3 fold states) planned and checked in the dual cell."""
-    import fabkit.pipeline as fk
+def cell_hosts(tmp_path_factory):
+    """The dual cell with a controller `host` for each arm: two loopback addresses free now."""
+    import random
 
+    hosts = dict(zip(("a", "b"), free_loopback_hosts(random.Random())))
+    text = DUAL.read_text()
+    text = text.replace('[robot]                                   # arm "a"\n',
+                        f'[robot]                                   # arm "a"\nhost = "{hosts["a"]}"\n')
+    text = text.replace('name = "b"\n', f'name = "b"\nhost = "{hosts["b"]}"\n')
+    path = tmp_path_factory.mktemp("dualcell") / "dual_ur10e_hosts.toml"
+    path.write_text(text)
+    return path, hosts
+
+
+@pytest.fixture(scope="module")
+def job(tmp_path_factory, cell_hosts):
+    """The middle-clamped tri-fold (3 fold states) planned and checked in the dual cell (with hosts)."""
+    import fabkit.pipeline as fk
+    from robot.cell import load_cell
+
+    assert {n: m.host for n, m in load_cell(cell_hosts[0]).arms} == cell_hosts[1]
     folder = tmp_path_factory.mktemp("dualjob")
     flat = fk.unfold(fk.relax(fk.generate("trifold")))
     folds = fk.refold(flat, frames=3, fixed_face=4)
-    program = fk.plan(folds, DUAL, workdir=folder)
+    program = fk.plan(folds, cell_hosts[0], workdir=folder)
     assert program.ok, program.problems
     checked = fk.check(program)
     assert checked.ok, checked.problems
@@ -39,23 +56,26 @@ def job(tmp_path_factory):
 
 
 @pytest.fixture()
-def standins(tmp_path):
+def standins(tmp_path, cell_hosts):
     arms = {}
     try:
         for arm in ("a", "b"):
             arms[arm] = StandIn("--cell", str(DUAL), "--arm", arm, "--unlock-delay", "0.2", "-v",
-                                log=tmp_path / f"ursim_{arm}.log")
+                                log=tmp_path / f"ursim_{arm}.log", host=cell_hosts[1][arm])
         yield arms
     finally:
         for s in arms.values():
             s.stop()
 
 
-def _send(program, checked, standins, tmp_path, *extra, **popen):
+def _send(program, checked, standins, tmp_path, *extra, cell_hosts: bool = False, **popen):
+    """`fabkit send` of the job to the stand-ins: with --host for each arm, or (`cell_hosts`) none,
+    the cell naming them."""
     log = tmp_path / "send.log"
+    hosts = [] if cell_hosts else ["--host", standins["a"].host, "--host", standins["b"].host]
     cmd = [sys.executable, "-m", "fabkit", "send", str(program.path_file), "--check", str(checked.check_file),
-           "--cell", str(DUAL), "--host", standins["a"].host, "--host", standins["b"].host, "--log", str(log),
-           "--report", str(tmp_path / "send.json"), *extra]
+           "--cell", str(program.cell.source), *hosts, "--log", str(log), "--report", str(tmp_path / "send.json"),
+           *extra]
     return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen), log
 
 
@@ -146,8 +166,9 @@ def _resume_after_the_fault(program, checked, standins, tmp_path, err, report):
     assert told in accepted and accepted == list(range(accepted[0], accepted[-1] + 1)) and len(accepted) <= 2, \
         (told, accepted)
     uploads = {arm: s.log_text().count(LOADED) for arm, s in standins.items()}
+    t0 = time.monotonic()
     for k in (accepted[-1] + 1, accepted[-1] + 3):
-        proc, _ = _send(program, checked, standins, tmp_path, "--resume-from", str(k), "--unlock")
+        proc, _ = _send(program, checked, standins, tmp_path, "--resume-from", str(k), "--unlock", cell_hosts=True)
         _, refused = proc.communicate(timeout=120)
         assert proc.returncode == 2 and f"--resume-from {k}:" in refused and "arm " in refused \
             and refused.count("\n") == 1, refused
@@ -155,15 +176,20 @@ def _resume_after_the_fault(program, checked, standins, tmp_path, err, report):
         for arm, s in standins.items():
             assert s.log_text().count(LOADED) == uploads[arm], f"the refused resume uploaded to arm {arm}"
             assert s.state()["q"] == states[arm]["q"]
-    proc, log = _send(program, checked, standins, tmp_path, "--resume-from", str(told), "--unlock")
+    t1 = time.monotonic()
+    proc, log = _send(program, checked, standins, tmp_path, "--resume-from", str(told), "--unlock",
+                      cell_hosts=True)  # the controllers the cell names
     _, err = proc.communicate(timeout=240)
     assert proc.returncode == 0, err
+    print(f"resume from {told} (accepted {accepted}, meet at {report['resume']['meet_at']}): two refusals "
+          f"{t1 - t0:.1f} s, the resumed send {time.monotonic() - t1:.1f} s")
     for arm, s in standins.items():
         np.testing.assert_allclose(s.state()["q"], atp.arm(arm).waypoints[-1].q, atol=1e-4)
     meet = report["resume"]["meet_at"]
     ev = _events(log)
     _synced(ev, atp, [k for k in atp.sync if k >= meet])
     done = json.loads((tmp_path / "send.json").read_text())
+    assert done["hosts"] == {arm: s.host for arm, s in standins.items()}
     assert done["ok"] and done["last_completed_per_arm"] == {"a": len(atp) - 1, "b": len(atp) - 1}
     for arm in standins:  # the resume starts mid-fold: each gripper closed again before the first move
         grips = [e for e in ev if e.get("step") == "gripper" and e["arm"] == arm]
