@@ -228,3 +228,63 @@ def test_an_arm_whose_controller_falls_silent_stops_the_others():
     finished.finished("b")  # an arm done with its program is not watched
     time.sleep(0.1)
     finished.beat("a")
+
+
+def test_one_urscript_per_arm_meets_at_every_sync_waypoint(job, tmp_path):
+    """`robot.arms_urscript`: each arm's program compiles on the stand-in, with one handshake per
+    sync waypoint. On two stand-ins whose handshake lines are wired together (`--wire-output`), arm
+    b's program started 2 s after arm a's: both finish at their last waypoints, and no arm ever
+    moves past a sync waypoint the other has not reached (arm a waits at the first one)."""
+    import random
+    import socket
+
+    from robot.arms_urscript import HANDSHAKE_INPUT, HANDSHAKE_OUTPUT, write_arm_urscripts
+    from robot.urscript import PROGRESS_REGISTER
+    from sim.ursim.urscript import parse_program
+
+    program, _ = job
+    atp = program.toolpath
+    scripts = write_arm_urscripts(atp)
+    for arm, text in scripts.items():
+        name, statements = parse_program(text)
+        waits = [s for s in statements if s.name == "wait_standard_digital_in"]
+        assert name == f"fabkit_fold_dual_ur10e_{arm}" and len(waits) == len(atp.sync) + 1  # the start and every sync
+        assert [s.args for s in waits[1:]] == [(HANDSHAKE_INPUT, j % 2 == 1) for j in range(1, len(atp.sync) + 1)]
+    hosts = dict(zip(("a", "b"), free_loopback_hosts(random.Random())))
+    peer = {"a": "b", "b": "a"}
+    arms = {}
+    try:
+        for arm in ("a", "b"):
+            arms[arm] = StandIn("--cell", str(DUAL), "--arm", arm, "-v", "--wire-output",
+                                f"{HANDSHAKE_OUTPUT}:{hosts[peer[arm]]}:{HANDSHAKE_INPUT}",
+                                log=tmp_path / f"ursim_{arm}.log", host=hosts[arm])
+        for arm, delay in (("a", 0.0), ("b", 2.0)):
+            time.sleep(delay)
+            with socket.create_connection((hosts[arm], 30002), timeout=5.0) as s:
+                s.sendall(scripts[arm].encode("ascii"))
+        n, seen, deadline = len(atp), [], time.monotonic() + 120.0
+        while time.monotonic() < deadline:
+            st = {arm: s.state() for arm, s in arms.items()}
+            for arm in st:
+                assert not st[arm]["last_error"], (arm, st[arm]["last_error"])
+            at = {arm: st[arm]["out_int"][PROGRESS_REGISTER] for arm in st}
+            seen.append({**at, "a_idle": st["a"]["arm_mode"] == "idle"})
+            if all(k == n for k in at.values()):
+                break
+            time.sleep(0.02)
+        else:
+            pytest.fail(f"the programs did not finish: {seen[-3:]}; " + arms["a"].log_text()[-1000:])
+        for arm, s in arms.items():
+            np.testing.assert_allclose(s.state()["q"], atp.arm(arm).waypoints[-1].q, atol=1e-6)
+            assert not s.state()["digital_out"] & (1 << HANDSHAKE_OUTPUT)
+        for at in seen:  # moving toward a waypoint past sync k only once the other arm has reached k
+            for arm, other in peer.items():
+                passed = [k for k in atp.sync if at[arm] > k]
+                assert not passed or at[other] >= passed[-1], (at, atp.sync)
+        waited = [at for at in seen if at["a"] == atp.sync[0] and at["a_idle"] and at["b"] < atp.sync[0]]
+        assert len(waited) >= 10, ("arm a did not wait at the first sync waypoint for arm b",
+                                   [at for at in seen if at["a"] <= atp.sync[0] + 1][::5])
+        print(f"two URScript programs, b started 2 s late: arm a waited {len(waited)} polls at sync {atp.sync[0]}")
+    finally:
+        for s in arms.values():
+            s.stop()
