@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from robot.urscript import PROGRESS_REGISTER, write_urscript
 
-__all__ = ["HANDSHAKE_OUTPUT", "HANDSHAKE_INPUT", "handshake_lines", "write_arm_urscripts"]
+__all__ = ["HANDSHAKE_OUTPUT", "HANDSHAKE_INPUT", "handshake_lines", "write_arm_urscripts", "arm_script_path"]
 
 #: The standard digital output each arm raises/lowers at a sync waypoint, and the standard digital
 #: input wired to the other arm's output (both 0-7; the grip output must be another one).
@@ -42,6 +42,15 @@ def handshake_lines(level: bool, output: int = HANDSHAKE_OUTPUT, input_: int = H
     test = f"get_standard_digital_in({int(input_)})"
     return [f"set_standard_digital_out({int(output)}, {level})",
             f"while {'not ' if level else ''}{test}:", "  sync()", "end"]
+
+
+def arm_script_path(path, arm: str):
+    """Where arm `arm`'s program goes for `--script path`: `_<arm>` before the suffix
+    (fold.script -> fold_a.script)."""
+    from pathlib import Path
+
+    path = Path(path)
+    return path.with_name(f"{path.stem}_{arm}{path.suffix}")
 
 
 def write_arm_urscripts(atp, *, progress_register: int = PROGRESS_REGISTER, output: int = HANDSHAKE_OUTPUT,

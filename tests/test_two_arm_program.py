@@ -176,8 +176,8 @@ def test_interlock_reverifies_both_arms(middle):
 
 
 def test_cli_plans_and_checks_a_two_arm_program(middle, tmp_path):
-    """`fabkit toolpath` and `fabkit check` on the dual cell: the same program as the library's,
-    `--script` refused in one line."""
+    """`fabkit toolpath` and `fabkit check` on the dual cell: the same program as the library's;
+    `--script` writes one URScript program per arm."""
     folder, res, _ = middle
     fold = folder / "fold.fold"
     run = [sys.executable, "-m", "fabkit"]
@@ -196,9 +196,14 @@ def test_cli_plans_and_checks_a_two_arm_program(middle, tmp_path):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and "check: ok" in r.stdout, r.stdout + r.stderr
     r = subprocess.run(run + ["toolpath", str(fold), "--cell", str(DUAL), "-o", str(tmp_path / "q.json"),
-                              "--script", str(tmp_path / "q.script")], capture_output=True, text=True, timeout=300)
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "lockstep" in r.stderr
-    assert not (tmp_path / "q.json").exists() and not (tmp_path / "q.script").exists()
+                              "--grip-face", "28", "--script", str(tmp_path / "q.script")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr  # one program per arm (robot.arms_urscript), nothing at q.script itself
+    from robot.arms_urscript import write_arm_urscripts
+
+    written = {arm: (tmp_path / f"q_{arm}.script").read_text() for arm in ("a", "b")}
+    assert written == write_arm_urscripts(load_toolpath(tmp_path / "q.json")) and not (tmp_path / "q.script").exists()
+    assert "q_a.script: URScript program of arm a" in r.stdout
 
 
 def test_renders_draw_both_arms(middle, tmp_path):
