@@ -62,8 +62,10 @@ def write_arm_urscripts(atp, *, progress_register: int = PROGRESS_REGISTER, outp
     for name, tp in atp.arms:
         grip = tp.extra.get("grip") or {}
         if str(grip.get("kind", "tool")) == "standard" and int(grip.get("output", -1)) == int(output):
-            raise ValueError(f"arm {name}: the gripper uses standard digital output {output}, the handshake "
-                             "needs another one")
+            from fabkit.errors import InputError
+
+            raise InputError(f"arm {name}: the gripper uses standard digital output {output}, which the "
+                             "two-arm programs' handshake needs", source="--script")
         after = {int(k): handshake_lines(j % 2 == 1, output, input_) for j, k in enumerate(atp.sync, start=1)}
         after[0] = handshake_lines(False, output, input_)  # start from a reset line
         after[len(tp) - 1] = [f"set_standard_digital_out({int(output)}, False)"]

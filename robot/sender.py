@@ -93,16 +93,18 @@ class ArmSender:
         return self.worker.call(method, *args, timeout=timeout or self.s.call_timeout_s)
 
     # ---- steps ----------------------------------------------------------------------------------
-    def preflight(self) -> str:
-        verify = None
-        if self.lockstep is not None and self.s.resume_from > 0:
-            from robot.lockstep import resume_start
+    def _resume_rule(self, wps, k, q, tcp_pose, tol) -> None:
+        """A lockstep resume's start rule (`robot.lockstep.resume_start`): sets where this arm starts."""
+        from robot.lockstep import resume_start
 
-            def verify(wps, k, q, tcp_pose, tol):
-                self.start = resume_start(wps, self.lockstep.sync, k, q, tcp_pose, tol, arm=self.arm)
-                self.last_completed = self.start - 1
+        self.start = resume_start(wps, self.lockstep.sync, k, q, tcp_pose, tol, arm=self.arm)
+        self.last_completed = self.start - 1
+
+    def preflight(self) -> str:
+        lockstep_resume = self.lockstep is not None and self.s.resume_from > 0
         version = read_only_preflight(self.call, self.tp.robot, self.wps, self.s, self.event,
-                                      payload=self.tool.payload is not None, verify=verify)
+                                      payload=self.tool.payload is not None,
+                                      verify=self._resume_rule if lockstep_resume else None)
         if self.lockstep is not None:  # every arm's read-only preflight passed before any changes
             k = self.s.resume_from
             if not self.lockstep.meet(self.arm, on_path=self.start == k) and k > 0:
