@@ -293,18 +293,26 @@ def render(checked: Checked, path: str | os.PathLike, *, waypoint: int | None = 
     return render_movie(checked.run, cell, path, size, max_frames=frames)
 
 
-def send(program: Program, report: Checked, *, host: str, power_on: bool = False, unlock: bool = False,
+def send(program: Program, report: Checked, *, host: str | None = None, power_on: bool = False, unlock: bool = False,
          resume_from: int = 0, chunk: int = 50, stall: float = 0.5, log=None, on_progress=None, hosts=()) -> Sent:
     """Send `program` to the UR controller at `host` over RTDE (`fabkit send`), through
     `robot.sender.send_toolpath`: it refuses, before any connection, unless `report` passed for this
     very toolpath, cell file and FOLD file, and runs the check again on what it sends. Refusals
     raise (`robot.interlock.CheckFailedError` for a failed check, `InterlockError`, `SendError`);
     once the controller was contacted the result says how far it got (`Sent.result.last_completed`).
-    A two-arm program goes to `host` (arm a) and `hosts` (the further arms), in lockstep."""
-    from robot.send_options import send_option_problem
+    A two-arm program goes to `host` (arm a) and `hosts` (the further arms), in lockstep. Without
+    `host`, the controllers are the cell's (`host` of every arm), else `$FABKIT_UR_HOST`, as for
+    `fabkit send` (`robot.send_options.controller_hosts`). A stopped two-arm send names its resume
+    in `Sent.result.resume` (`robot.lockstep.ResumePoint`)."""
+    import os
+
+    from robot.send_options import controller_hosts, send_option_problem
     from robot.sender import SendSettings, send_toolpath
 
     _require_ok(program, "send")
+    names = getattr(program.toolpath, "arm_names", ("a",))
+    host, *hosts = controller_hosts((host, *hosts) if host else hosts, program.cell, names,
+                                    os.environ.get("FABKIT_UR_HOST"))
     for each in (host, *hosts):
         problem = send_option_problem(each, chunk, stall)
         if problem is not None:

@@ -262,6 +262,21 @@ class Program:
         reg = PROGRESS_REGISTER if progress_register is None else progress_register
         return write_urscript(self.toolpath, program_name=f"fold_{self.cell.name}", progress_register=reg)
 
+    def urscripts(self, script_path, progress_register: int | None = None) -> dict:
+        """{path: URScript program text} that `fabkit toolpath --script script_path` writes: the
+        one program at `script_path` for one arm; for several arms one per arm
+        (`robot.arms_urscript`), at `script_path` with `_<arm>` before its suffix."""
+        from fabkit.toolpath_stage import check_progress_register
+        from robot.arms_urscript import arm_script_path, write_arm_urscripts
+        from robot.urscript import PROGRESS_REGISTER
+
+        if not hasattr(self.toolpath, "arms"):
+            return {Path(script_path): self.urscript(progress_register)}
+        check_progress_register(progress_register)
+        reg = PROGRESS_REGISTER if progress_register is None else progress_register
+        return {arm_script_path(script_path, arm): text
+                for arm, text in write_arm_urscripts(self.toolpath, progress_register=reg).items()}
+
     def report(self, output=None, script=None) -> dict:
         """The report `fabkit toolpath --report` writes, naming `output` (the PATH.json written)
         and `script` (the URScript file, or None)."""
@@ -269,7 +284,9 @@ class Program:
                "robot": self.cell.model.name, **self.details, "ok": self.ok}
         if self.plan is not None:
             out.update({"output": None if output is None else str(output),
-                        "script": None if script is None else str(script), **plan_report(self.plan, self.toolpath)})
+                        "script": None if script is None else (str(script) if isinstance(script, (str, Path))
+                                                               else [str(x) for x in script]),
+                        **plan_report(self.plan, self.toolpath)})
         out["problems"] = list(self.records)
         return _jsonable(out)
 

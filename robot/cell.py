@@ -2,6 +2,9 @@
 further arms (`[[arms]]`, each carrying the same tool), the clamp (`[clamp]`: jaw pose, footprint
 polygon, the obstacle carrying it), jigs (`[[jigs]]`: like the clamp, a pad that holds a wing
 face fixed while the program engages it) and the suction cup's footprint radius (`tool.cup_radius`).
+`[robot]` and every `[[arms]]` may name the arm's controller (`host`, an IP address or host name,
+one controller per arm): what `fabkit send` connects to when no --host is given
+(`robot.send_options.controller_hosts`).
 
 `load_cell(path)` reads a TOML file, validates it once and returns a frozen `Cell`. Every problem
 is one `InputError` line naming the file and the key (`tool.shapes[1].radius: ...`): unknown keys,
@@ -30,6 +33,7 @@ from fabkit.errors import InputError
 from robot.toml_reader import TableReader, checked_number
 from robot.kinematics import MODELS, URModel, get_model
 from robot.rtde_limits import MAX_BLEND, MAX_JOINT_ACCEL, MAX_TOOL_ACCEL, MAX_TOOL_SPEED
+from robot.send_options import is_host
 from robot.ur_arm import HOME_Q
 
 __all__ = ["Cell", "RobotMount", "Tool", "Shape", "Limits", "Clamp", "Jig", "load_cell", "parse_cell", "pose_to_matrix",
@@ -72,11 +76,13 @@ class Shape:
 
 @dataclass(frozen=True, eq=False)
 class RobotMount:
-    """The arm: `model` name ("ur5e" | "ur10e"), `base_pose` 4x4 base -> world, `home` joints (rad)."""
+    """The arm: `model` name ("ur5e" | "ur10e"), `base_pose` 4x4 base -> world, `home` joints (rad),
+    `host` its controller's address (optional; `fabkit send` uses it when no --host is given)."""
 
     model: str
     base_pose: np.ndarray
     home: np.ndarray
+    host: str | None = None
 
     @property
     def kinematics(self) -> URModel:
@@ -208,7 +214,10 @@ def _mount(rr: TableReader) -> RobotMount:
     for i, q in enumerate(home):
         if not urm.q_min[i] <= q <= urm.q_max[i]:
             rr.fail("home", f"joint {i + 1} = {q:.12g} rad is outside [{urm.q_min[i]:.6g}, {urm.q_max[i]:.6g}]")
-    return RobotMount(model, base_pose, home)
+    host = rr.string("host", required=False, default="") or None
+    if host is not None and not is_host(host):
+        rr.fail("host", f"{host!r} is not an IP address or host name")
+    return RobotMount(model, base_pose, home, host)
 
 
 def _extra_arm(r: TableReader) -> tuple[str, RobotMount]:
@@ -300,6 +309,12 @@ def parse_cell(data: dict, source: str) -> Cell:
     for i, n in enumerate(arm_names):
         if n in arm_names[:i]:
             raise InputError(f"arms[{i - 1}].name: {n!r} is used twice (the [robot] arm is \"a\")", source=source)
+    hosts = [robot.host] + [m.host for _, m in extra]
+    for i, h in enumerate(hosts):
+        if h is not None and h in hosts[:i]:
+            where = "robot.host" if i == 0 else f"arms[{i - 1}].host"
+            raise InputError(f"{where}: {h!r} is arm {arm_names[hosts.index(h)]}'s controller too (one controller "
+                             "per arm)", source=source)
 
     lr = top.table_("limits")
     limits = Limits(

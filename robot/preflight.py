@@ -18,12 +18,13 @@ class ControllerFault(Exception):
     """The controller is not (or no longer) in a state to run the send; the message says why."""
 
 
-def read_only_preflight(call, robot: str, waypoints, s, event, payload: bool = False) -> str:
+def read_only_preflight(call, robot: str, waypoints, s, event, payload: bool = False, verify=None) -> str:
     """Read-only: the dashboard answers, the robot model is `robot`, remote control is on, and the
     arm stands where a send from `s.resume_from` may start (`robot.interlock.verify_start`).
     Changes nothing on the controller. `call(method, *args, timeout=None)` runs a worker call, `s`
     is the `SendSettings`; `payload`: also receive the controller's payload (RTDE `payload`,
-    `payload_cog`); returns the controller's software version."""
+    `payload_cog`); `verify(waypoints, k, q, tcp_pose, tol)` replaces `verify_start` (a lockstep
+    resume's rule, `robot.lockstep.resume_start`); returns the controller's software version."""
     t_end = time.monotonic() + s.connect_retry_s
     while True:
         try:
@@ -45,7 +46,7 @@ def read_only_preflight(call, robot: str, waypoints, s, event, payload: bool = F
     st = call("state", timeout=max(1.0, s.stall_s * 2))
     event(step="start position", q=st["q"], tcp_pose=st["tcp_pose"], resume_from=s.resume_from)
     try:
-        verify_start(waypoints, s.resume_from, st["q"], st["tcp_pose"], s.start)
+        (verify or verify_start)(waypoints, s.resume_from, st["q"], st["tcp_pose"], s.start)
     except SendError as exc:
         if s.resume_from == 0:
             raise ControllerFault(str(exc)) from None

@@ -77,6 +77,7 @@ class ArmSender:
         self._log = log or (lambda e: None)
         self._on_progress = on_progress or (lambda k, st: None)
         self.worker: RTDEWorker | None = None
+        self.start = settings.resume_from  # a lockstep resume may start this arm at the meeting point
         self.last_completed = settings.resume_from - 1
         self.last_state: dict | None = None
         self._last_ts = None
@@ -93,17 +94,32 @@ class ArmSender:
         return self.worker.call(method, *args, timeout=timeout or self.s.call_timeout_s)
 
     # ---- steps ----------------------------------------------------------------------------------
+    def _resume_rule(self, wps, k, q, tcp_pose, tol) -> None:
+        """A lockstep resume's start rule (`robot.lockstep.resume_start`): sets where this arm starts."""
+        from robot.lockstep import resume_start
+
+        self.start = resume_start(wps, self.lockstep.sync, k, q, tcp_pose, tol, arm=self.arm)
+        self.last_completed = self.start - 1
+
     def preflight(self) -> str:
-        return read_only_preflight(self.call, self.tp.robot, self.wps, self.s, self.event,
-                                   payload=self.tool.payload is not None)
+        lockstep_resume = self.lockstep is not None and self.s.resume_from > 0
+        version = read_only_preflight(self.call, self.tp.robot, self.wps, self.s, self.event,
+                                      payload=self.tool.payload is not None,
+                                      verify=self._resume_rule if lockstep_resume else None)
+        if self.lockstep is not None:  # every arm's read-only preflight passed before any changes
+            k = self.s.resume_from
+            if not self.lockstep.meet(self.arm, on_path=self.start == k) and k > 0:
+                raise SendError(f"--resume-from {k}: no arm is on its path into waypoint {k}, every arm stands at "
+                                f"waypoint {self.start}: give --resume-from {self.start}")
+        return version
 
     def prepare(self) -> None:
         prepare_controller(self.call, self.s)
 
     def poll(self) -> dict:
         """One state sample; raises _Fault on stall, safety stop or a stopped program."""
-        if self.lockstep is not None and self.lockstep.aborted:
-            raise _Fault(self.lockstep.reason_for(self.arm))
+        if self.lockstep is not None:
+            self.lockstep.beat(self.arm)  # raises on an abort, or when another arm fell silent
         st = self.call("state", timeout=max(1.0, self.s.stall_s * 2))
         now = time.monotonic()
         if st["timestamp"] != self._last_ts:
@@ -296,7 +312,7 @@ class ArmSender:
             active = self.call("get_tcp")
             if len(active) != 6 or np.abs(np.subtract(active, self.tp.tcp)).max() > 1e-9:
                 raise _Fault(f"the controller's active TCP {active} is not the toolpath's {list(self.tp.tcp)}")
-            holding = self.tool.holding_at(s.resume_from)
+            holding = self.tool.holding_at(self.start)
             if self.tool.grip is not None:
                 self.tool.set_gripper(holding)
             self.tool.set_payload(holding)  # before the first motion (robot.send_tool)
@@ -308,7 +324,7 @@ class ArmSender:
             switch = [k for k, w in enumerate(self.wps) if w.op in ("grip", "release") or k in sync]
             if self.lockstep is not None:
                 self.lockstep.wait(self.arm, 0, self.poll)  # every arm ready before any moves
-            start, first = s.resume_from, True
+            start, first = self.start, True
             while True:
                 stop = min(start + max(2, s.chunk), n)
                 if first and start in switch:
@@ -325,6 +341,8 @@ class ArmSender:
                     break
                 start = stop - 1
             self.finish(result)
+            if self.lockstep is not None:
+                self.lockstep.finished(self.arm)
             result.ok = True
             self.call("stop_script")  # the arm rests on the last waypoint: end the control script
         except _Fault as exc:
@@ -377,8 +395,6 @@ def send_toolpath(toolpath, check, cell, settings: SendSettings, *, fold: str | 
         raise SendError(f"--resume-from {settings.resume_from}: the toolpath has waypoints 0-{n - 1}")
     if not hasattr(toolpath, "arms") and settings.hosts:
         raise SendError(f"--host: a one-arm program goes to one controller, got {1 + len(settings.hosts)} addresses")
-    if hasattr(toolpath, "arms") and settings.resume_from != 0:
-        raise SendError("--resume-from: a program for several arms starts at waypoint 0 (every arm at its start)")
     cleared = clear_for_send(toolpath, check, cell, fold=fold, base_dir=base_dir)
     for _, one in getattr(cleared.toolpath, "arms", (("a", cleared.toolpath),)):
         validate_waypoints(one.waypoints)

@@ -66,15 +66,20 @@ def _list(values) -> str:
 
 def write_urscript(tp: Toolpath, *, program_name: str | None = None, progress_register: int = PROGRESS_REGISTER,
                    grip_output: int | None = None, grip_output_kind: str | None = None,
-                   grip_dwell: float | None = None, release_dwell: float | None = None) -> str:
+                   grip_dwell: float | None = None, release_dwell: float | None = None,
+                   after_waypoint: dict | None = None, header_extra: tuple = ()) -> str:
     """The URScript program for `tp` (see module docstring). Gripper settings default to the
-    toolpath's `grip` record (from the cell). A program for several arms has none (one controller
-    program cannot wait for another controller): `InputError`; `fabkit send` drives it in lockstep."""
+    toolpath's `grip` record (from the cell). `after_waypoint` {i: [script lines]}: lines run at
+    rest after waypoint i (after its gripper switch and dwell; its move gets blend radius 0), and
+    `header_extra` further header comment lines: what `robot.arms_urscript` adds for one arm of a
+    program for several arms. A program for several arms itself is refused (`InputError`): it is
+    one script per arm (`robot.arms_urscript.write_arm_urscripts`)."""
     if not isinstance(tp, Toolpath):
         from fabkit.errors import InputError
 
-        raise InputError("a program for several arms runs in lockstep through `fabkit send`, not as one URScript "
-                         "program per controller", source="--script")
+        raise InputError("a program for several arms is one URScript program per arm "
+                         "(robot.arms_urscript.write_arm_urscripts)", source="--script")
+    after_waypoint = after_waypoint or {}
     grip = dict(tp.extra.get("grip", {}))
     out_no = int(grip.get("output", 0) if grip_output is None else grip_output)
     kind = str(grip.get("kind", "tool") if grip_output_kind is None else grip_output_kind)
@@ -98,6 +103,7 @@ def write_urscript(tp: Toolpath, *, program_name: str | None = None, progress_re
         f"progress: output integer register {int(progress_register)} = index of the waypoint being moved to, "
         f"{len(tp)} when done",
         f"gripper: {setter}({out_no}, True) after the grip waypoint, False after release",
+        *(sanitise_comment(h, 200) for h in header_extra),
     ]
     # the text starts with `def` (a controller's script port runs it as one program), header inside
     lines = [f"def {name}():"] + [f"  # {h}" for h in header] + [
@@ -115,7 +121,8 @@ def write_urscript(tp: Toolpath, *, program_name: str | None = None, progress_re
     for i, w in enumerate(tp.waypoints):
         lines.append(f"  # waypoint {i}: {sanitise_comment(w['op'])}, fold state {int(w['state'])}")
         lines.append(f"  write_output_integer_register({int(progress_register)}, {i})")
-        a, v, r = format_number(w["a"]), format_number(w["v"]), format_number(w["r"])
+        a, v = format_number(w["a"]), format_number(w["v"])
+        r = "0.0" if i in after_waypoint else format_number(w["r"])  # at rest where more follows
         if w["move"] == "movej":
             lines.append(f"  movej({_list(w['q'])}, a={a}, v={v}, r={r})")
         elif w["move"] == "movel":
@@ -132,6 +139,7 @@ def write_urscript(tp: Toolpath, *, program_name: str | None = None, progress_re
             lines.append(f"  sleep({format_number(r_dwell)})")
             if payload:
                 lines.append(tool_payload)
+        lines += [f"  {line}" for line in after_waypoint.get(i, ())]
     lines.append(f"  write_output_integer_register({int(progress_register)}, {len(tp)})")
     lines.append("end")
     return "\n".join(lines) + "\n"

@@ -69,14 +69,15 @@ class StandIn:
 
     The address is picked at random among free ones (other test runs may use the same machine at
     the same time); the stand-in counts as started only when *its own* process reports ready, and
-    another address is tried if it could not bind.
+    another address is tried if it could not bind. `host`: this address only (one picked free
+    earlier, e.g. named in a cell file).
     """
 
-    def __init__(self, *args: str, log: Path):
+    def __init__(self, *args: str, log: Path, host: str | None = None):
         import random
 
         self.log = log
-        for host in free_loopback_hosts(random.Random()):
+        for host in [host] if host else free_loopback_hosts(random.Random()):
             self.host = host
             with open(log, "w") as out:
                 self.proc = subprocess.Popen([sys.executable, "-m", "sim.ursim", "--host", host, *args],

@@ -176,8 +176,8 @@ def test_interlock_reverifies_both_arms(middle):
 
 
 def test_cli_plans_and_checks_a_two_arm_program(middle, tmp_path):
-    """`fabkit toolpath` and `fabkit check` on the dual cell: the same program as the library's,
-    `--script` refused in one line."""
+    """`fabkit toolpath` and `fabkit check` on the dual cell: the same program as the library's;
+    `--script` writes one URScript program per arm."""
     folder, res, _ = middle
     fold = folder / "fold.fold"
     run = [sys.executable, "-m", "fabkit"]
@@ -196,9 +196,14 @@ def test_cli_plans_and_checks_a_two_arm_program(middle, tmp_path):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and "check: ok" in r.stdout, r.stdout + r.stderr
     r = subprocess.run(run + ["toolpath", str(fold), "--cell", str(DUAL), "-o", str(tmp_path / "q.json"),
-                              "--script", str(tmp_path / "q.script")], capture_output=True, text=True, timeout=300)
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "lockstep" in r.stderr
-    assert not (tmp_path / "q.json").exists() and not (tmp_path / "q.script").exists()
+                              "--grip-face", "28", "--script", str(tmp_path / "q.script")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr  # one program per arm (robot.arms_urscript), nothing at q.script itself
+    from robot.arms_urscript import write_arm_urscripts
+
+    written = {arm: (tmp_path / f"q_{arm}.script").read_text() for arm in ("a", "b")}
+    assert written == write_arm_urscripts(load_toolpath(tmp_path / "q.json")) and not (tmp_path / "q.script").exists()
+    assert "q_a.script: URScript program of arm a" in r.stdout
 
 
 def test_renders_draw_both_arms(middle, tmp_path):
@@ -240,3 +245,59 @@ def test_a_one_arm_program_goes_to_one_controller(tmp_path):
     tp = demo_toolpath(n_fold=6)
     with pytest.raises(SendError, match="one-arm program goes to one controller, got 2"):
         send_toolpath(tp, check_report(tp), load_cell(CELL), SendSettings(host="127.0.0.1", hosts=("127.0.0.2",)))
+
+
+def test_permuted_vertex_and_face_order_give_the_same_program(tmp_path):
+    """The tri-fold as a plain OBJ (no tags), and the same with its vertices and faces renumbered and
+    each face's corners rotated, refolded and planned on the dual cell as a user would (`fabkit refold` with its
+    clamp face the demo picks, `fabkit.placement.choose_clamp_face`; `fabkit toolpath`): the same
+    clamped face, the same grip face per arm and the same program (every arm's joints and poses
+    within 1e-9), up to the face permutation."""
+    from holds_panels import trifold_pair
+
+    from fabkit.cli import main
+    from fabkit.io.obj import save_obj
+    from fabkit.mesh import PolyMesh
+    from fabkit.placement import choose_clamp_face
+
+    flat, target = trifold_pair()
+    rng = np.random.default_rng(11)
+    new_of_old = rng.permutation(flat.n_vertices)
+    order = rng.permutation(flat.n_faces)  # new face i is old face order[i]
+    rings = []
+    for f in order:
+        ring = [int(new_of_old[v]) for v in flat.face(int(f))]
+        k = int(rng.integers(len(ring)))
+        rings.append(ring[k:] + ring[:k])
+
+    def renumbered(mesh):
+        V = np.empty_like(mesh.vertices)
+        V[new_of_old] = mesh.vertices
+        return PolyMesh(V, rings)
+
+    def plain(mesh):
+        return PolyMesh(mesh.vertices, mesh.faces_list())
+
+    programs = {}
+    for name, (f, t) in {"plain": (plain(flat), plain(target)),
+                         "permuted": (renumbered(flat), renumbered(target))}.items():
+        d = tmp_path / name
+        d.mkdir()
+        save_obj(f, d / "flat.obj")
+        save_obj(t, d / "target.obj")
+        assert main(["refold", str(d / "flat.obj"), str(d / "target.obj"), "-o", str(d / "s.fold"), "--frames",
+                     "3", "--fixed-face", str(choose_clamp_face(f)), "-q"]) == 0
+        assert main(["toolpath", str(d / "s.fold"), "--cell", str(DUAL), "-o", str(d / "p.json"), "-q"]) == 0
+        programs[name] = load_toolpath(d / "p.json")
+    ref, got = programs["plain"], programs["permuted"]
+    old = lambda faces: [int(order[f]) if f is not None else None for f in faces]  # noqa: E731
+    assert ref.arm_names == got.arm_names == ("a", "b") and ref.sync == got.sync
+    hr, hg = ref.extra["holds"], got.extra["holds"]
+    assert old(hg["clamped_faces"]) == hr["clamped_faces"]
+    for arm in ref.arm_names:
+        a, b = ref.arm(arm), got.arm(arm)
+        assert old([b.extra["grip"]["face"]]) == [a.extra["grip"]["face"]]
+        assert old(hg["arms"][arm]) == hr["arms"][arm]
+        assert [w.op for w in a.waypoints] == [w.op for w in b.waypoints]
+        np.testing.assert_allclose([w.q for w in b.waypoints], [w.q for w in a.waypoints], atol=1e-9, rtol=0)
+        np.testing.assert_allclose([w.pose for w in b.waypoints], [w.pose for w in a.waypoints], atol=1e-9, rtol=0)

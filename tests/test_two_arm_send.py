@@ -1,9 +1,12 @@
 """Lockstep send of a two-arm program: two controller stand-ins on two loopback addresses, one
-ur_rtde worker per arm, every sync waypoint reached by both arms before either goes on, and a
-fault of one arm stopping both."""
+ur_rtde worker per arm, every sync waypoint reached by both arms before either goes on, a fault of
+one arm stopping both, and the resume after it (refused one or three waypoints off before anything
+on either controller changes; from the waypoint the send names, both arms meet at the next sync
+waypoint and finish the program)."""
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import threading
@@ -13,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests._ursim import ROOT, StandIn, external_host
+from tests._ursim import ROOT, StandIn, external_host, free_loopback_hosts
 
 DUAL = ROOT / "cells" / "dual_ur10e.toml"
 
@@ -21,14 +24,31 @@ pytestmark = pytest.mark.skipif(external_host() is not None, reason="two stand-i
 
 
 @pytest.fixture(scope="module")
-def job(tmp_path_factory):
-    """The middle-clamped tri-fold (3 fold states) planned and checked in the dual cell."""
-    import fabkit.pipeline as fk
+def cell_hosts(tmp_path_factory):
+    """The dual cell with a controller `host` for each arm: two loopback addresses free now."""
+    import random
 
+    hosts = dict(zip(("a", "b"), free_loopback_hosts(random.Random())))
+    text = DUAL.read_text()
+    text = text.replace('[robot]                                   # arm "a"\n',
+                        f'[robot]                                   # arm "a"\nhost = "{hosts["a"]}"\n')
+    text = text.replace('name = "b"\n', f'name = "b"\nhost = "{hosts["b"]}"\n')
+    path = tmp_path_factory.mktemp("dualcell") / "dual_ur10e_hosts.toml"
+    path.write_text(text)
+    return path, hosts
+
+
+@pytest.fixture(scope="module")
+def job(tmp_path_factory, cell_hosts):
+    """The middle-clamped tri-fold (3 fold states) planned and checked in the dual cell (with hosts)."""
+    import fabkit.pipeline as fk
+    from robot.cell import load_cell
+
+    assert {n: m.host for n, m in load_cell(cell_hosts[0]).arms} == cell_hosts[1]
     folder = tmp_path_factory.mktemp("dualjob")
     flat = fk.unfold(fk.relax(fk.generate("trifold")))
     folds = fk.refold(flat, frames=3, fixed_face=4)
-    program = fk.plan(folds, DUAL, workdir=folder)
+    program = fk.plan(folds, cell_hosts[0], workdir=folder)
     assert program.ok, program.problems
     checked = fk.check(program)
     assert checked.ok, checked.problems
@@ -36,23 +56,26 @@ def job(tmp_path_factory):
 
 
 @pytest.fixture()
-def standins(tmp_path):
+def standins(tmp_path, cell_hosts):
     arms = {}
     try:
         for arm in ("a", "b"):
             arms[arm] = StandIn("--cell", str(DUAL), "--arm", arm, "--unlock-delay", "0.2", "-v",
-                                log=tmp_path / f"ursim_{arm}.log")
+                                log=tmp_path / f"ursim_{arm}.log", host=cell_hosts[1][arm])
         yield arms
     finally:
         for s in arms.values():
             s.stop()
 
 
-def _send(program, checked, standins, tmp_path, **popen):
+def _send(program, checked, standins, tmp_path, *extra, cell_hosts: bool = False, **popen):
+    """`fabkit send` of the job to the stand-ins: with --host for each arm, or (`cell_hosts`) none,
+    the cell naming them."""
     log = tmp_path / "send.log"
+    hosts = [] if cell_hosts else ["--host", standins["a"].host, "--host", standins["b"].host]
     cmd = [sys.executable, "-m", "fabkit", "send", str(program.path_file), "--check", str(checked.check_file),
-           "--cell", str(DUAL), "--host", standins["a"].host, "--host", standins["b"].host, "--log", str(log),
-           "--report", str(tmp_path / "send.json")]
+           "--cell", str(program.cell.source), *hosts, "--log", str(log), "--report", str(tmp_path / "send.json"),
+           *extra]
     return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen), log
 
 
@@ -60,29 +83,19 @@ def _events(log: Path) -> list[dict]:
     return [json.loads(line) for line in log.read_text().splitlines() if line.strip()]
 
 
-def test_both_arms_fold_in_lockstep(job, standins, tmp_path):
-    program, checked = job
-    atp = program.toolpath
-    proc, log = _send(program, checked, standins, tmp_path)
-    out, err = proc.communicate(timeout=240)
-    assert proc.returncode == 0, err + "".join(s.log_text()[-1500:] for s in standins.values())
-    for arm, s in standins.items():
-        q_end = np.array(atp.arm(arm).waypoints[-1].q)
-        np.testing.assert_allclose(s.state()["q"], q_end, atol=1e-4)
-    ev = _events(log)
-    for k in atp.sync:  # both arms arrive at every sync waypoint before either passes it
-        arrived = [e["t"] for e in ev if e.get("step") == "sync arrived" and e["waypoint"] == k]
-        passed = [e["t"] for e in ev if e.get("step") == "sync passed" and e["waypoint"] == k]
+def _synced(events, atp, sync) -> None:
+    """Both arms arrive at every sync waypoint of `sync` before either passes it."""
+    for k in sync:
+        arrived = [e["t"] for e in events if e.get("step") == "sync arrived" and e["waypoint"] == k]
+        passed = [e["t"] for e in events if e.get("step") == "sync passed" and e["waypoint"] == k]
         assert len(arrived) == len(passed) == 2, k
         assert max(arrived) <= min(passed) + 1e-3
-    report = json.loads((tmp_path / "send.json").read_text())
-    assert report["ok"] and report["last_completed_per_arm"] == {"a": len(atp) - 1, "b": len(atp) - 1}
-    assert {e["arm"] for e in ev if e.get("call") == "move_path"} == {"a", "b"}
 
 
-def test_a_fault_on_one_arm_stops_both(job, standins, tmp_path):
-    """A protective stop on arm b's controller once both arms passed the first fold state: arm a
-    stops too, and the report names each arm's last completed waypoint."""
+def test_a_fault_on_one_arm_stops_both_and_the_resume_finishes(job, standins, tmp_path):
+    """Both arms fold in lockstep; a protective stop on arm b's controller once both arms passed
+    the first fold state stops arm a too, and the report names each arm's last completed waypoint
+    and the resume; the resume finishes the program (`_resume_after_the_fault`)."""
     program, checked = job
     atp = program.toolpath
     trigger = atp.sync[1]          # the first fold state
@@ -93,7 +106,8 @@ def test_a_fault_on_one_arm_stops_both(job, standins, tmp_path):
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None:
             if log.exists() and sum(1 for e in _events(log) if e.get("step") == "sync passed"
-                                    and e["waypoint"] == trigger) == 2:
+                                    and e["waypoint"] == trigger) == 2 \
+                    and all(s.state()["arm_mode"] == "traj" for s in standins.values()):  # both folding
                 fired["t"] = time.time()
                 standins["b"].admin("protective_stop")
                 return
@@ -116,47 +130,161 @@ def test_a_fault_on_one_arm_stops_both(job, standins, tmp_path):
     time.sleep(0.2)
     np.testing.assert_allclose(standins["a"].state()["q"], qa, atol=1e-9)
     ev = _events(log)
+    _synced(ev, atp, [k for k in atp.sync if k <= trigger])
+    assert {e["arm"] for e in ev if e.get("call") == "move_path"} == {"a", "b"}
     stop_a = [e["t"] for e in ev if e.get("step") == "stop" and e["arm"] == "a"]
     assert stop_a and stop_a[0] - fired["t"] < 1.0
     print(f"arm a stopped {stop_a[0] - fired['t']:.3f} s after the fault on arm b")
     assert any(e.get("step") == "done" and e["arm"] == "a" and "arm b stopped" in (e.get("reason") or "") for e in ev)
+    _resume_after_the_fault(program, checked, standins, tmp_path, err, report)
 
 
-def _seconds_to_idle(standin, t0, limit=3.0) -> float:
-    while time.monotonic() - t0 < limit:
-        if standin.state()["arm_mode"] == "idle":
-            return time.monotonic() - t0
-        time.sleep(0.005)
-    pytest.fail(f"the arm did not stop within {limit} s: {standin.state()['log_tail'][-5:]}")
+LOADED = "RTDE Control Script Loaded"
 
 
-@pytest.mark.slow
-def test_killing_the_sender_stops_both_arms(job, standins, tmp_path):
-    """`kill -9` of `fabkit send` while arm a folds: each arm stops (its worker, orphaned, stops it; else its
-    controller's RTDE watchdog)."""
-    import os
-    import signal
+def _resume_after_the_fault(program, checked, standins, tmp_path, err, report):
+    """The resume the stopped send named: one and three waypoints past the last one both arms
+    accept are refused (exit 2, one line naming the arm) with arm b still in its protective stop
+    and no control script uploaded to either controller; the named one finishes the program."""
+    from robot.interlock import StartTolerances
+    from robot.lockstep import resume_start
+    from robot.path_chunks import SendError
 
-    program, checked = job
-    proc, log = _send(program, checked, standins, tmp_path)
-    try:
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and proc.poll() is None:
-            passed = [e for e in _events(log) if e.get("step") == "sync passed"
-                      and e["waypoint"] == program.toolpath.sync[0]] if log.exists() else []
-            if len(passed) == 2 and standins["a"].state()["arm_mode"] != "idle":
-                break
+    atp = program.toolpath
+    told = int(re.search(r"continue with --resume-from (\d+)", err).group(1))
+    assert report["resume"]["resume_from"] == told and report["resume"]["meet_at"] in (*atp.sync, len(atp) - 1)
+    states = {arm: s.state() for arm, s in standins.items()}
+    accepted = []  # every arm on its path into k or at the meeting point, at least one on its path
+    for k in range(1, len(atp)):
+        try:
+            starts = [resume_start(atp.arm(arm).waypoints, atp.sync, k, st["q"], st["tcp_pose"], StartTolerances(),
+                                   arm) for arm, st in states.items()]
+            if k in starts:
+                accepted.append(k)
+        except SendError:
+            pass
+    assert told in accepted and accepted == list(range(accepted[0], accepted[-1] + 1)) and len(accepted) <= 2, \
+        (told, accepted)
+    uploads = {arm: s.log_text().count(LOADED) for arm, s in standins.items()}
+    t0 = time.monotonic()
+    for k in (accepted[-1] + 1, accepted[-1] + 3):
+        proc, _ = _send(program, checked, standins, tmp_path, "--resume-from", str(k), "--unlock", cell_hosts=True)
+        _, refused = proc.communicate(timeout=120)
+        assert proc.returncode == 2 and f"--resume-from {k}:" in refused and "arm " in refused \
+            and refused.count("\n") == 1, refused
+        assert standins["b"].state()["safety_mode"] == "PROTECTIVE_STOP", "the refused resume unlocked arm b"
+        for arm, s in standins.items():
+            assert s.log_text().count(LOADED) == uploads[arm], f"the refused resume uploaded to arm {arm}"
+            assert s.state()["q"] == states[arm]["q"]
+    t1 = time.monotonic()
+    proc, log = _send(program, checked, standins, tmp_path, "--resume-from", str(told), "--unlock",
+                      cell_hosts=True)  # the controllers the cell names
+    _, err = proc.communicate(timeout=240)
+    assert proc.returncode == 0, err
+    print(f"resume from {told} (accepted {accepted}, meet at {report['resume']['meet_at']}): two refusals "
+          f"{t1 - t0:.1f} s, the resumed send {time.monotonic() - t1:.1f} s")
+    for arm, s in standins.items():
+        np.testing.assert_allclose(s.state()["q"], atp.arm(arm).waypoints[-1].q, atol=1e-4)
+    meet = report["resume"]["meet_at"]
+    ev = _events(log)
+    _synced(ev, atp, [k for k in atp.sync if k >= meet])
+    done = json.loads((tmp_path / "send.json").read_text())
+    assert done["hosts"] == {arm: s.host for arm, s in standins.items()}
+    assert done["ok"] and done["last_completed_per_arm"] == {"a": len(atp) - 1, "b": len(atp) - 1}
+    for arm in standins:  # the resume starts mid-fold: each gripper closed again before the first move
+        grips = [e for e in ev if e.get("step") == "gripper" and e["arm"] == arm]
+        first_move = min(e["t"] for e in ev if e.get("call") == "move_path" and e["arm"] == arm)
+        assert grips[0]["on"] is True and grips[0]["t"] <= first_move and grips[-1]["on"] is False, grips
+
+
+def _under_way(lock):
+    """Both arms of `lock` past their start barrier (waypoint 0), each polling as it waits."""
+    other = threading.Thread(target=lock.wait, args=("b", 0, lambda: lock.beat("b")))
+    other.start()
+    lock.wait("a", 0, lambda: lock.beat("a"))
+    other.join(5)
+    lock.beat("b")
+
+
+def test_an_arm_whose_controller_falls_silent_stops_the_others():
+    """A ur_rtde call that does not return leaves its arm unable to see its own fault: the other arm's
+    next poll after `silence_s` aborts the lockstep, naming the silent arm."""
+    from robot.lockstep import Lockstep
+    from robot.preflight import ControllerFault
+
+    lock = Lockstep(("a", "b"), (2,), poll_s=0.005, silence_s=0.2)
+    lock.beat("a")
+    time.sleep(0.25)
+    lock.beat("a")  # arm b not under way yet (still preparing): not watched
+    _under_way(lock)
+    t0 = time.monotonic()
+    with pytest.raises(ControllerFault, match="stopped because arm b stopped: its controller did not answer"):
+        while time.monotonic() - t0 < 2.0:  # arm a folds on, polling; arm b's call hangs
+            lock.beat("a")
             time.sleep(0.01)
-        assert proc.poll() is None, "the send ended before the arms folded"
-        t0 = time.monotonic()
-        os.kill(proc.pid, signal.SIGKILL)
-        dt = {arm: _seconds_to_idle(s, t0) for arm, s in standins.items()}
+    assert 0.2 <= time.monotonic() - t0 < 0.5
+    finished = Lockstep(("a", "b"), (2,), poll_s=0.005, silence_s=0.05)
+    _under_way(finished)
+    finished.finished("b")  # an arm done with its program is not watched
+    time.sleep(0.1)
+    finished.beat("a")
+
+
+def test_one_urscript_per_arm_meets_at_every_sync_waypoint(job, tmp_path):
+    """`robot.arms_urscript`: each arm's program compiles on the stand-in, with one handshake per
+    sync waypoint. On two stand-ins whose handshake lines are wired together (`--wire-output`), arm
+    b's program started 2 s after arm a's: both finish at their last waypoints, and no arm ever
+    moves past a sync waypoint the other has not reached (arm a waits at the first one)."""
+    import random
+    import socket
+
+    from robot.arms_urscript import HANDSHAKE_INPUT, HANDSHAKE_OUTPUT, write_arm_urscripts
+    from robot.urscript import PROGRESS_REGISTER
+    from sim.ursim.urscript import parse_program
+
+    program, _ = job
+    atp = program.toolpath
+    scripts = write_arm_urscripts(atp)
+    for arm, text in scripts.items():
+        name, statements = parse_program(text)
+        waits = [s for s in statements if s.name == "wait_standard_digital_in"]
+        assert name == f"fabkit_fold_dual_ur10e_{arm}" and len(waits) == len(atp.sync) + 1  # the start and every sync
+        assert [s.args for s in waits[1:]] == [(HANDSHAKE_INPUT, j % 2 == 1) for j in range(1, len(atp.sync) + 1)]
+    hosts = dict(zip(("a", "b"), free_loopback_hosts(random.Random())))
+    peer = {"a": "b", "b": "a"}
+    arms = {}
+    try:
+        for arm in ("a", "b"):
+            arms[arm] = StandIn("--cell", str(DUAL), "--arm", arm, "-v", "--wire-output",
+                                f"{HANDSHAKE_OUTPUT}:{hosts[peer[arm]]}:{HANDSHAKE_INPUT}",
+                                log=tmp_path / f"ursim_{arm}.log", host=hosts[arm])
+        for arm, delay in (("a", 0.0), ("b", 2.0)):
+            time.sleep(delay)
+            with socket.create_connection((hosts[arm], 30002), timeout=5.0) as s:
+                s.sendall(scripts[arm].encode("ascii"))
+        n, seen, deadline = len(atp), [], time.monotonic() + 120.0
+        while time.monotonic() < deadline:
+            st = {arm: s.state() for arm, s in arms.items()}
+            for arm in st:
+                assert not st[arm]["last_error"], (arm, st[arm]["last_error"])
+            at = {arm: st[arm]["out_int"][PROGRESS_REGISTER] for arm in st}
+            seen.append({**at, "a_idle": st["a"]["arm_mode"] == "idle"})
+            if all(k == n for k in at.values()):
+                break
+            time.sleep(0.02)
+        else:
+            pytest.fail(f"the programs did not finish: {seen[-3:]}; " + arms["a"].log_text()[-1000:])
+        for arm, s in arms.items():
+            np.testing.assert_allclose(s.state()["q"], atp.arm(arm).waypoints[-1].q, atol=1e-6)
+            assert not s.state()["digital_out"] & (1 << HANDSHAKE_OUTPUT)
+        for at in seen:  # moving toward a waypoint past sync k only once the other arm has reached k
+            for arm, other in peer.items():
+                passed = [k for k in atp.sync if at[arm] > k]
+                assert not passed or at[other] >= passed[-1], (at, atp.sync)
+        waited = [at for at in seen if at["a"] == atp.sync[0] and at["a_idle"] and at["b"] < atp.sync[0]]
+        assert len(waited) >= 10, ("arm a did not wait at the first sync waypoint for arm b",
+                                   [at for at in seen if at["a"] <= atp.sync[0] + 1][::5])
+        print(f"two URScript programs, b started 2 s late: arm a waited {len(waited)} polls at sync {atp.sync[0]}")
     finally:
-        if proc.poll() is None:
-            proc.kill()
-        proc.wait(timeout=10)
-    print(f"kill -9 send: arms idle after {dt}")
-    assert max(dt.values()) <= 0.5, dt
-    for s in standins.values():  # each arm's watchdog, or its orphaned worker stopping it before it exits
-        tail = "\n".join(s.state()["log_tail"])
-        assert "RTDE watchdog" in tail or "stop script" in tail, tail
+        for s in arms.values():
+            s.stop()

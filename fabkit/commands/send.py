@@ -40,8 +40,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--fold", metavar="SEQ.fold", help="the FOLD file the toolpath was planned from (default: "
                         "the one the check used, else the one the toolpath names)")
     parser.add_argument("--host", action="append", default=None,
-                        help="controller address (default: $FABKIT_UR_HOST); a program for several arms: one "
-                             "--host per arm, in the program's arm order")
+                        help="controller address; a program for several arms: one --host per arm, in the "
+                             "program's arm order (default: the cell's host of every arm, else $FABKIT_UR_HOST); "
+                             "given, they replace all of the cell's")
     parser.add_argument("--power-on", action="store_true", help="power on and release the brakes if needed")
     parser.add_argument("--unlock", action="store_true",
                         help="unlock a protective stop (>= 5 s old) before sending; inspect its cause first")
@@ -72,18 +73,18 @@ def _load_check(path: str) -> dict:
 def run(args) -> int:
     from robot.cell import load_cell
     from robot.interlock import CheckFailedError, InterlockError
-    from robot.send_options import send_option_problem
+    from robot.send_options import controller_hosts, send_option_problem
     from robot.sender import SendError, SendSettings, send_toolpath
     from robot.arms_toolpath import load_toolpath
 
-    hosts = list(args.host or [os.environ.get("FABKIT_UR_HOST")])
-    args.host = hosts[0]
-    problem = send_option_problem(args.host, args.chunk, args.stall) or next(
-        (p for h in hosts[1:] for p in [send_option_problem(h, args.chunk, args.stall)] if p), None)
-    if problem is not None:
-        raise InputError(problem[1], source=f"--{problem[0]}")
     tp = load_toolpath(args.toolpath)
     cell = load_cell(args.cell)
+    hosts, _ = controller_hosts(args.host, cell, getattr(tp, "arm_names", ("a",)), os.environ.get("FABKIT_UR_HOST"))
+    hosts = list(hosts)
+    args.host = hosts[0]
+    problem = next((p for h in hosts for p in [send_option_problem(h, args.chunk, args.stall)] if p), None)
+    if problem is not None:
+        raise InputError(problem[1], source=f"--{problem[0]}")
     check = _load_check(args.check)
     settings = SendSettings(host=args.host, chunk=args.chunk, resume_from=args.resume_from,
                             power_on=args.power_on, unlock=args.unlock, stall_s=args.stall, hosts=tuple(hosts[1:]))
@@ -107,9 +108,16 @@ def run(args) -> int:
     else:
         nxt = result.last_completed + 1
         per_arm = getattr(result, "last_completed_per_arm", None)
-        last = (", ".join(f"arm {a} {k}" for a, k in per_arm.items()) if per_arm else result.last_completed)
-        print(f"fabkit send: stopped: {result.reason}; last completed waypoint {last} of {n - 1}"
-              + (f"; continue with --resume-from {nxt}" if 0 <= nxt < n and not per_arm else ""), file=sys.stderr)
+        if per_arm:
+            resume = result.resume
+            last = ", ".join(f"arm {a} {k}" for a, k in per_arm.items())
+            hint = "" if resume is None else (f" (last sync waypoint {resume.last_sync}); {resume.describe()}"
+                                              if resume.last_sync >= 0 else f"; {resume.describe()}")
+        else:
+            last = result.last_completed
+            hint = f"; continue with --resume-from {nxt}" if 0 <= nxt < n else ""
+        print(f"fabkit send: stopped: {result.reason}; last completed waypoint {last} of {n - 1}{hint}",
+              file=sys.stderr)
     write_report(args, {"ok": result.ok, "sent": True, "host": args.host if len(hosts) == 1 else hosts,
                         "toolpath": args.toolpath,
                         "toolpath_sha256": tp.sha256, "resume_from": args.resume_from, **result.to_json()})

@@ -46,7 +46,9 @@ def add_arguments(parser) -> None:
     add_units(parser)
     parser.add_argument("--cell", required=True, metavar="CELL.toml", help="robot cell description")
     parser.add_argument("-o", "--output", required=True, metavar="PATH.json", help="toolpath to write")
-    parser.add_argument("--script", metavar="PROG.script", help="also write the URScript program")
+    parser.add_argument("--script", metavar="PROG.script", help="also write the URScript program (a program for "
+                        "several arms: one per arm, PROG_a.script, PROG_b.script, meeting at every sync waypoint "
+                        "through standard digital I/O)")
     parser.add_argument("--grip-face", type=int, metavar="F",
                         help="face id to grip (default: automatic among the middle-row faces, tagged or "
                              "inferred from the last fold state; never the clamped face)")
@@ -91,6 +93,7 @@ def run(args) -> int:
     from fabkit.commands._loading import print_notes
     from fabkit.io.atomic import atomic_write
     from fabkit.toolpath_stage import PlanSettings, check_progress_register, plan_fold_file
+    from robot.arms_urscript import HANDSHAKE_OUTPUT
 
     # every option named like a PlanSettings field (--grip-face: grip_face) goes into the one record
     settings = PlanSettings(**{name: getattr(args, name) for name in PlanSettings.field_names() if hasattr(args, name)})
@@ -112,17 +115,23 @@ def run(args) -> int:
         write_report(args, program.report())
         return 1
     tp, cell, res = program.toolpath, program.cell, program.plan
-    script = program.urscript(args.progress_register) if args.script else None
+    scripts = program.urscripts(args.script, args.progress_register) if args.script else {}
+    clash = next((p for p in scripts if args.output and Path(args.output).resolve() == p.resolve()), None)
+    if clash is not None:
+        raise InputError(f"the program {clash} and the toolpath would overwrite each other", source="--script")
     tp.save(args.output)
-    if script is not None:
-        with atomic_write(args.script) as fh:
-            fh.write(script)
-    write_report(args, program.report(args.output, args.script))
+    for path, text in scripts.items():
+        with atomic_write(path) as fh:
+            fh.write(text)
+    write_report(args, program.report(args.output, list(scripts) if len(scripts) > 1 else args.script))
     checks = tp.extra["checks"]
     say(args, f"{args.output}: {len(tp)} waypoints for {cell.model.name} in {cell.name}, grip face {res.grip_face}"
               f"{' (back side)' if tp.extra.get('grip', {}).get('side') == 'back' else ''} "
               f"({res.branch}), cycle time ~{res.cycle_time:.1f} s, largest fold step "
               f"{math.degrees(checks['max_fold_joint_step_rad']):.2f} deg, sha256 {tp.sha256[:12]}")
-    if args.script:
+    for arm, path in zip(getattr(tp, "arm_names", ()), scripts):
+        say(args, f"{path}: URScript program of arm {arm} (handshake on standard DO/DI {HANDSHAKE_OUTPUT}, see "
+                  "docs/robot.md)")
+    if len(scripts) == 1:
         say(args, f"{args.script}: URScript program")
     return 0

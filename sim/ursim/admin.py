@@ -13,6 +13,7 @@ Not part of a real controller. One command per line, one JSON reply per line:
     normal                       undo slow and stall
     at_progress N KIND [ARG]     run fault KIND when the async progress register reaches N
     after SECONDS KIND [ARG]     run fault KIND after SECONDS
+    digital_in N 0|1             set standard digital input N (0-7), as a wire into the controller would
     record [clear]               the motion and tool commands received so far (see
                                  `Controller.record`), or forget them
     shutdown                     stop the stand-in
@@ -156,6 +157,13 @@ def handle(ctrl, line: str, shutdown) -> dict:
             return {"ok": True, "commands": ctrl.recorded()}
         if cmd == "shutdown":
             shutdown()
+            return {"ok": True}
+        if cmd == "digital_in":
+            if len(rest) != 2 or rest[0] not in tuple("01234567") or rest[1] not in ("0", "1"):
+                raise ValueError("usage: digital_in N 0|1 (N a standard digital input 0-7)")
+            with ctrl.lock:
+                bit = 1 << int(rest[0])
+                ctrl.digital_in = (ctrl.digital_in | bit) if rest[1] == "1" else (ctrl.digital_in & ~bit)
             return {"ok": True}
         if cmd in ("at_progress", "after"):
             if len(rest) < 2:

@@ -57,6 +57,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--robot-mode-data-46", action="store_true",
                         help="send the 46-byte robot mode sub-package of 3.2-3.4 on 30001/30002 instead of "
                         "5.x's 47 bytes (python-urx 0.11 recognises only the older sizes)")
+    parser.add_argument("--wire-output", action="append", default=[], metavar="N:HOST:M",
+                        help="standard digital output N drives standard digital input M of the stand-in at HOST "
+                             "(repeatable; two controllers' I/O wired together)")
     parser.add_argument("--log", metavar="FILE", help="append the controller log to FILE")
     parser.add_argument("-v", "--verbose", action="store_true", help="print the controller log to stderr")
     parser.add_argument("--report", metavar="R.json", help="write a machine-readable JSON report at exit")
@@ -145,6 +148,12 @@ def run_stand_in(args) -> int:
             faults.append(parse_fault_option(text))
         except ValueError as exc:
             raise InputError(str(exc), source="--fault") from None
+    from sim.ursim.wires import parse_wire, run_wires
+
+    try:
+        wires = [parse_wire(t) for t in args.wire_output]
+    except ValueError as exc:
+        raise InputError(str(exc), source="--wire-output") from None
     cfg = config_from_args(args)
     programs = Path(args.programs) if args.programs else None
     if programs is not None and not programs.is_dir():
@@ -165,6 +174,7 @@ def run_stand_in(args) -> int:
     for f in faults:
         stand_in.ctrl.schedule_fault(f)
     stop = threading.Event()
+    run_wires(stand_in.ctrl, wires, stop)
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     v = cfg.version
     quiet = getattr(args, "quiet", False)

@@ -54,7 +54,7 @@ def snapshot(ctrl) -> dict:
             "tcp_speed": ctrl.tcp_speed.copy(), "tcp_offset": ctrl.tcp_offset_pose(),
             "robot_mode": ctrl.robot_mode, "safety_mode": ctrl.safety_mode, "runtime": ctrl.runtime_state,
             "speed_fraction": ctrl.speed_fraction, "speed_scaling": ctrl.speed_scaling,
-            "digital_in": 0, "digital_out": ctrl.digital_out, "analog_out": list(ctrl.analog_out),
+            "digital_in": ctrl.digital_in, "digital_out": ctrl.digital_out, "analog_out": list(ctrl.analog_out),
             "safety_status_bits": ctrl.safety_status_bits, "payload": ctrl.payload,
             "payload_cog": ctrl.payload_cog.copy(), "elbow": ctrl.elbow_position.copy(),
             "tool_output_mode": ctrl.tool_output_mode, "tool_do_modes": tuple(ctrl.tool_digital_output_modes),

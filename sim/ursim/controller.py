@@ -116,6 +116,7 @@ class Controller:
         self.out_int = [0] * 48
         self.out_double = [0.0] * 48
         self.digital_out = 0
+        self.digital_in = 0  # standard digital inputs (bits 0-7): admin `digital_in`, or a wire (sim.ursim.wires)
         self.analog_out = [0.0, 0.0]
         self.speed_fraction = 1.0
         self.robot_mode = config.robot_mode
@@ -551,7 +552,8 @@ class Controller:
                 "tcp_offset": self.tcp_offset_pose().tolist(),
                 "robot_mode": ROBOT_MODES.get(self.robot_mode), "safety_mode": SAFETY_MODES.get(self.safety_mode),
                 "runtime_state": self.runtime_state, "program": getattr(self.program, "name", None),
-                "arm_mode": self.arm.mode, "digital_out": self.digital_out, "out_int": self.out_int[:8],
+                "arm_mode": self.arm.mode, "digital_out": self.digital_out, "digital_in": self.digital_in,
+                "out_int": self.out_int[:8],
                 "speed_fraction": self.speed_fraction, "last_error": self.last_error,
                 "payload": self.payload, "payload_cog": self.payload_cog.tolist(),
                 "operational_mode": self.operational_mode, "clients": self.clients.count(),

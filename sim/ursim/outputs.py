@@ -58,6 +58,7 @@ def _getters(ctrl) -> dict:
         "runtime_state": lambda: ctrl.runtime_state, "robot_status_bits": lambda: ctrl.robot_status_bits,
         "safety_status_bits": lambda: ctrl.safety_status_bits,
         "actual_digital_output_bits": lambda: ctrl.digital_out,
+        "actual_digital_input_bits": lambda: ctrl.digital_in,
         "speed_scaling": lambda: ctrl.speed_scaling,
         "target_speed_fraction": lambda: ctrl.speed_fraction,
         "standard_analog_output0": lambda: ctrl.analog_out[0],
