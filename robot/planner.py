@@ -253,6 +253,23 @@ def _reach_bound(model, chain: list[_Target], branch, opt: PlanOptions, solve) -
     return len(chain)
 
 
+def _travel_bound(model, chain: list[_Target], q0: np.ndarray, q_home: np.ndarray, branch, solve) -> float:
+    """A lower bound of the joint travel `plan_toolpath` costs the branch (before the pi per sign):
+    from home to q0, then between consecutive target poses at least the wrapped difference of the
+    branch's solutions there (the path passes through them, each joint modulo 2pi). 0 when a target
+    has more or fewer than one solution on the branch (no bound)."""
+    total = float(np.abs(q0 - q_home).sum())
+    prev = q0
+    for tgt in chain[1:]:
+        S = solve(tgt.T)
+        on = S[np.all(K.branch_signs(model, S) == np.asarray(branch), axis=1)] if len(S) else S
+        if len(on) != 1:
+            return 0.0
+        total += float(np.abs(K.wrap_angle(on[0] - prev)).sum())
+        prev = on[0]
+    return total
+
+
 def _solve_on_branch(model, solve, T, q_ref, branch, index: int, between: bool = False) -> np.ndarray:
     S = solve(T)
     where = "on the line to this waypoint" if between else "pose"
@@ -330,9 +347,14 @@ def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions =
         runs.append((k, opt, chain, q0, branch, _reach_bound(model, chain, branch, opt, solve)))
     # Only branches whose every target pose is reachable on them can plan; the others are
     # propagated only when one of them may be the failure that got farthest (the explanation).
-    best, best_cost, fails = None, np.inf, {}
-    for k, opt, chain, q0, branch, bound in runs:
-        if bound < len(chain):
+    # Of those, the least cost wins (the first of equals in the order of the starts): they are tried
+    # from the least lower bound of their cost up, and one whose bound exceeds the best cost found
+    # cannot win.
+    reachable = [(_travel_bound(model, chain, q0, q_home, branch, solve) + np.pi * np.sum(branch != home_branch),
+                  k, opt, chain, q0, branch) for k, opt, chain, q0, branch, bound in runs if bound == len(chain)]
+    best, best_cost, best_k, fails = None, np.inf, -1, {}
+    for low, k, opt, chain, q0, branch in sorted(reachable, key=lambda r: (r[0], r[1])):
+        if low > best_cost + 1e-9 * (1.0 + best_cost):  # the margin covers the bound's rounding
             continue
         try:
             path = _propagate(model, tcp, chain, q0, branch, opt, solve)
@@ -343,8 +365,8 @@ def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions =
         # least joint travel; a branch other than the home configuration's costs pi per changed sign
         cost = (np.abs(Q[0] - q_home).sum() + np.abs(np.diff(Q, axis=0)).sum()
                 + np.pi * np.sum(branch != home_branch))
-        if cost < best_cost:
-            best, best_cost = path, cost
+        if cost < best_cost or (cost == best_cost and k < best_k):
+            best, best_cost, best_k = path, cost, k
     if best is None:
         # the branch that got farthest explains best (the first of equals, in the order of the starts):
         # a branch whose reach bound is short of the farthest failure known cannot be it

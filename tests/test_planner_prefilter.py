@@ -1,6 +1,7 @@
-"""The planner's reach bound skips only branches that cannot plan and cannot be the failure that
-got farthest: with it the toolpaths and the refusals are exactly those of propagating every
-branch (PATH.json byte for byte, the same PlanningError text)."""
+"""The planner's bounds skip only branches that cannot win: the reach bound those that cannot plan
+and cannot be the failure that got farthest, the travel bound those whose least possible cost
+exceeds the best found. With them the toolpaths and the refusals are exactly those of propagating
+every branch in order (PATH.json byte for byte, the same PlanningError text)."""
 from __future__ import annotations
 
 import json
@@ -67,6 +68,7 @@ def test_the_reach_bound_changes_no_toolpath_and_no_refusal(name, fixture, outco
     n_fast = len(calls)
     # every branch propagated in the order of the starts, as without the bound
     monkeypatch.setattr(planner, "_reach_bound", lambda model, chain, *a: len(chain))
+    monkeypatch.setattr(planner, "_travel_bound", lambda *a: -np.inf)
     calls.clear()
     every = _outcome(cell, F, grip_face=face)
     assert fast == every
@@ -74,3 +76,5 @@ def test_the_reach_bound_changes_no_toolpath_and_no_refusal(name, fixture, outco
     assert n_fast <= len(calls)
     if "unreachable" in outcome:  # the refusal took one propagation where every branch took one each
         assert n_fast == 1 < len(calls)
+    if outcome == "planned":  # branches that cannot beat the best were not propagated
+        assert n_fast < len(calls)
