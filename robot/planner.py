@@ -34,6 +34,7 @@ from robot.cell import Cell, matrix_to_pose, pose_to_matrix
 from robot.motion import (MotionParams, blend_overlaps, blend_radii, cycle_time, joint_speed_estimates,
                           limited_params)
 from robot.blends import cap_blend_radii
+from robot.branch_bounds import IKMemo, reach_bound, travel_bound
 from robot.grip_choice import approach_variants, grip_order
 from robot.holds_record import holds_record
 from robot.toolpath import Toolpath, Waypoint
@@ -162,9 +163,9 @@ def _propagate(model, tcp, chain: list[_Target], q0: np.ndarray, branch, opt: Pl
     Fold moves are subdivided (straight TCP lines between fold states) until no joint changes by
     more than `max_joint_step` between waypoints; every linear segment is then checked at
     intermediate poses for reach, branch and joint swings. `solve(T)`: the IK of a TCP pose
-    (`_IKMemo`; default `K.ik` with `tcp`).
+    (`robot.branch_bounds.IKMemo`; default `K.ik` with `tcp`).
     """
-    solve = solve or _IKMemo(model, tcp)
+    solve = solve or IKMemo(model, tcp)
     out = [replace(chain[0], q=q0)]
     for i in range(1, len(chain)):
         prev, tgt = out[-1], chain[i]
@@ -213,61 +214,6 @@ def _propagate(model, tcp, chain: list[_Target], q0: np.ndarray, branch, opt: Pl
         if np.max(np.abs(b.q - q_ref)) > opt.max_joint_step:
             raise _Fail(i, "discontinuous", "joints swing on the straight line from the previous waypoint")
     return out
-
-
-class _IKMemo:
-    """`K.ik(model, T, tcp)` remembered by the pose's bytes for one plan: the subdivisions of a fold
-    move keep the poses of the coarser division (k/n == 2k/2n exactly), and the reach bound
-    (`_reach_bound`) solves the chain's own poses before they are propagated."""
-
-    def __init__(self, model, tcp):
-        self.model, self.tcp, self.known = model, tcp, {}
-
-    def __call__(self, T: np.ndarray) -> np.ndarray:
-        T = np.ascontiguousarray(T, dtype=np.float64)
-        key = T.tobytes()
-        S = self.known.get(key)
-        if S is None:
-            S = K.ik(self.model, T, self.tcp)
-            S.setflags(write=False)
-            self.known[key] = S
-        return S
-
-
-def _first_try_is_the_target(tgt: _Target, opt: PlanOptions) -> bool:
-    """True when `_propagate` solves the target pose itself first (not an interpolated one): every
-    move but a fold move given more than one piece (`fold_pieces`)."""
-    return tgt.op not in ("fold", "release") or dict(opt.fold_pieces).get(tgt.state, 1) == 1
-
-
-def _reach_bound(model, chain: list[_Target], branch, opt: PlanOptions, solve) -> int:
-    """An upper bound on the chain index where `_propagate` fails on `branch`: the first target
-    whose own pose no solution on the branch reaches (propagation fails there or before), or
-    len(chain) when every target pose is reachable on it (no bound: it may plan)."""
-    for i in range(1, len(chain)):
-        if not _first_try_is_the_target(chain[i], opt):
-            continue
-        S = solve(chain[i].T)
-        if len(S) == 0 or not np.any(np.all(K.branch_signs(model, S) == np.asarray(branch), axis=1)):
-            return i
-    return len(chain)
-
-
-def _travel_bound(model, chain: list[_Target], q0: np.ndarray, q_home: np.ndarray, branch, solve) -> float:
-    """A lower bound of the joint travel `plan_toolpath` costs the branch (before the pi per sign):
-    from home to q0, then between consecutive target poses at least the wrapped difference of the
-    branch's solutions there (the path passes through them, each joint modulo 2pi). 0 when a target
-    has more or fewer than one solution on the branch (no bound)."""
-    total = float(np.abs(q0 - q_home).sum())
-    prev = q0
-    for tgt in chain[1:]:
-        S = solve(tgt.T)
-        on = S[np.all(K.branch_signs(model, S) == np.asarray(branch), axis=1)] if len(S) else S
-        if len(on) != 1:
-            return 0.0
-        total += float(np.abs(K.wrap_angle(on[0] - prev)).sum())
-        prev = on[0]
-    return total
 
 
 def _solve_on_branch(model, solve, T, q_ref, branch, index: int, between: bool = False) -> np.ndarray:
@@ -333,7 +279,7 @@ def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions =
     if len(starts) == 0:
         raise PlanningError(1, "approach", 0, "unreachable", "no joint solution reaches the approach pose "
                             f"{np.round(matrix_to_pose(base_chain[0].T), 4).tolist()}")
-    solve = _IKMemo(model, tcp)
+    solve = IKMemo(model, tcp)
     runs = []  # (start, opt, chain, q0, branch, reach bound) per IK solution of the approach pose
     for k, q_start in enumerate(starts):
         opt, chain, q0 = base_opt, base_chain, K.unwrap_near(q_start, q_home, model)
@@ -344,13 +290,13 @@ def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions =
             q0 = q0.copy()
             q0[5] += delta
         branch = K.branch_signs(model, q0)
-        runs.append((k, opt, chain, q0, branch, _reach_bound(model, chain, branch, opt, solve)))
+        runs.append((k, opt, chain, q0, branch, reach_bound(model, chain, branch, opt, solve)))
     # Only branches whose every target pose is reachable on them can plan; the others are
     # propagated only when one of them may be the failure that got farthest (the explanation).
     # Of those, the least cost wins (the first of equals in the order of the starts): they are tried
     # from the least lower bound of their cost up, and one whose bound exceeds the best cost found
     # cannot win.
-    reachable = [(_travel_bound(model, chain, q0, q_home, branch, solve) + np.pi * np.sum(branch != home_branch),
+    reachable = [(travel_bound(model, chain, q0, q_home, branch, solve) + np.pi * np.sum(branch != home_branch),
                   k, opt, chain, q0, branch) for k, opt, chain, q0, branch, bound in runs if bound == len(chain)]
     best, best_cost, best_k, fails = None, np.inf, -1, {}
     for low, k, opt, chain, q0, branch in sorted(reachable, key=lambda r: (r[0], r[1])):

@@ -67,8 +67,8 @@ def test_the_reach_bound_changes_no_toolpath_and_no_refusal(name, fixture, outco
     fast = _outcome(cell, F, grip_face=face)
     n_fast = len(calls)
     # every branch propagated in the order of the starts, as without the bound
-    monkeypatch.setattr(planner, "_reach_bound", lambda model, chain, *a: len(chain))
-    monkeypatch.setattr(planner, "_travel_bound", lambda *a: -np.inf)
+    monkeypatch.setattr(planner, "reach_bound", lambda model, chain, *a: len(chain))
+    monkeypatch.setattr(planner, "travel_bound", lambda *a: -np.inf)
     calls.clear()
     every = _outcome(cell, F, grip_face=face)
     assert fast == every
