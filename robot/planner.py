@@ -34,6 +34,7 @@ from robot.cell import Cell, matrix_to_pose, pose_to_matrix
 from robot.motion import (MotionParams, blend_overlaps, blend_radii, cycle_time, joint_speed_estimates,
                           limited_params)
 from robot.blends import cap_blend_radii
+from robot.branch_bounds import IKMemo, reach_bound, travel_bound
 from robot.grip_choice import approach_variants, grip_order
 from robot.holds_record import holds_record
 from robot.toolpath import Toolpath, Waypoint
@@ -155,13 +156,16 @@ class _Fail(Exception):
         self.index, self.kind, self.detail = index, kind, detail
 
 
-def _propagate(model, tcp, chain: list[_Target], q0: np.ndarray, branch, opt: PlanOptions) -> list[_Target]:
+def _propagate(model, tcp, chain: list[_Target], q0: np.ndarray, branch, opt: PlanOptions,
+               solve=None) -> list[_Target]:
     """Joint solutions along a chain of linear moves on one branch (raises _Fail).
 
     Fold moves are subdivided (straight TCP lines between fold states) until no joint changes by
     more than `max_joint_step` between waypoints; every linear segment is then checked at
-    intermediate poses for reach, branch and joint swings.
+    intermediate poses for reach, branch and joint swings. `solve(T)`: the IK of a TCP pose
+    (`robot.branch_bounds.IKMemo`; default `K.ik` with `tcp`).
     """
+    solve = solve or IKMemo(model, tcp)
     out = [replace(chain[0], q=q0)]
     for i in range(1, len(chain)):
         prev, tgt = out[-1], chain[i]
@@ -172,7 +176,7 @@ def _propagate(model, tcp, chain: list[_Target], q0: np.ndarray, branch, opt: Pl
             poses = _interp(prev.T, tgt.T, ts) if pieces > 1 else tgt.T[None]
             qs, q_ref, worst = [], prev.q, 0.0
             for T in poses:
-                q = _solve_on_branch(model, tcp, T, q_ref, branch, index=i)
+                q = _solve_on_branch(model, solve, T, q_ref, branch, index=i)
                 why = _singular_problem(model, q, opt)
                 if why:
                     raise _Fail(i, "singular", why)
@@ -203,7 +207,7 @@ def _propagate(model, tcp, chain: list[_Target], q0: np.ndarray, branch, opt: Pl
         ts = np.arange(1, n_sub + 1) / (n_sub + 1)
         q_ref = a.q
         for T in _interp(a.T, b.T, ts):
-            q = _solve_on_branch(model, tcp, T, q_ref, branch, index=i, between=True)
+            q = _solve_on_branch(model, solve, T, q_ref, branch, index=i, between=True)
             if np.max(np.abs(q - q_ref)) > opt.max_joint_step:
                 raise _Fail(i, "discontinuous", "joints swing on the straight line from the previous waypoint")
             q_ref = q
@@ -212,8 +216,8 @@ def _propagate(model, tcp, chain: list[_Target], q0: np.ndarray, branch, opt: Pl
     return out
 
 
-def _solve_on_branch(model, tcp, T, q_ref, branch, index: int, between: bool = False) -> np.ndarray:
-    S = K.ik(model, T, tcp)
+def _solve_on_branch(model, solve, T, q_ref, branch, index: int, between: bool = False) -> np.ndarray:
+    S = solve(T)
     where = "on the line to this waypoint" if between else "pose"
     if len(S) == 0:
         raise _Fail(index, "unreachable", f"no joint solution reaches the TCP {where} "
@@ -275,8 +279,9 @@ def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions =
     if len(starts) == 0:
         raise PlanningError(1, "approach", 0, "unreachable", "no joint solution reaches the approach pose "
                             f"{np.round(matrix_to_pose(base_chain[0].T), 4).tolist()}")
-    best, best_cost, fails = None, np.inf, []
-    for q_start in starts:
+    solve = IKMemo(model, tcp)
+    runs = []  # (start, opt, chain, q0, branch, reach bound) per IK solution of the approach pose
+    for k, q_start in enumerate(starts):
         opt, chain, q0 = base_opt, base_chain, K.unwrap_near(q_start, q_home, model)
         if auto_yaw:  # turning the tool about its axis moves wrist 3 alone: bring it to its home angle
             delta = float(K.wrap_angle(np.array(q_home[5] - q0[5])))
@@ -285,19 +290,44 @@ def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions =
             q0 = q0.copy()
             q0[5] += delta
         branch = K.branch_signs(model, q0)
+        runs.append((k, opt, chain, q0, branch, reach_bound(model, chain, branch, opt, solve)))
+    # Only branches whose every target pose is reachable on them can plan; the others are
+    # propagated only when one of them may be the failure that got farthest (the explanation).
+    # Of those, the least cost wins (the first of equals in the order of the starts): they are tried
+    # from the least lower bound of their cost up, and one whose bound exceeds the best cost found
+    # cannot win.
+    reachable = [(travel_bound(model, chain, q0, q_home, branch, solve) + np.pi * np.sum(branch != home_branch),
+                  k, opt, chain, q0, branch) for k, opt, chain, q0, branch, bound in runs if bound == len(chain)]
+    best, best_cost, best_k, fails = None, np.inf, -1, {}
+    for low, k, opt, chain, q0, branch in sorted(reachable, key=lambda r: (r[0], r[1])):
+        if low > best_cost + 1e-9 * (1.0 + best_cost):  # the margin covers the bound's rounding
+            continue
         try:
-            path = _propagate(model, tcp, chain, q0, branch, opt)
+            path = _propagate(model, tcp, chain, q0, branch, opt, solve)
         except _Fail as f:
-            fails.append((f, chain))
+            fails[k] = (f, chain)
             continue
         Q = np.array([t.q for t in path])
         # least joint travel; a branch other than the home configuration's costs pi per changed sign
         cost = (np.abs(Q[0] - q_home).sum() + np.abs(np.diff(Q, axis=0)).sum()
                 + np.pi * np.sum(branch != home_branch))
-        if cost < best_cost:
-            best, best_cost = path, cost
+        if cost < best_cost or (cost == best_cost and k < best_k):
+            best, best_cost, best_k = path, cost, k
     if best is None:
-        f, chain = max(fails, key=lambda fc: fc[0].index)  # the branch that got farthest explains best
+        # the branch that got farthest explains best (the first of equals, in the order of the starts):
+        # a branch whose reach bound is short of the farthest failure known cannot be it
+        for k, opt, chain, q0, branch, bound in sorted((r for r in runs if r[5] < len(r[2])),
+                                                       key=lambda r: (-r[5], r[0])):
+            top = max(fails.items(), key=lambda kv: (kv[1][0].index, -kv[0]), default=None)
+            if top is not None and (bound, -k) < (top[1][0].index, -top[0]):
+                continue
+            try:
+                _propagate(model, tcp, chain, q0, branch, opt, solve)
+            except _Fail as f:
+                fails[k] = (f, chain)
+                continue
+            raise RuntimeError("planner bug: a branch with an unreachable target pose propagated")
+        f, chain = max(fails.items(), key=lambda kv: (kv[1][0].index, -kv[0]))[1]
         t = chain[min(f.index, len(chain) - 1)]
         raise PlanningError(f.index + 1, t.op, t.state, f.kind, f.detail)
 

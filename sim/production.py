@@ -17,7 +17,7 @@ import tempfile
 import tomllib
 from pathlib import Path
 
-__all__ = ["program_panel", "carry_over"]
+__all__ = ["program_panel", "carry_over", "clamp_refusal"]
 
 
 @functools.lru_cache(maxsize=4)
@@ -47,7 +47,7 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
     from sim.check import run_toolpath_check
 
     out = {"stage": None, "reason": "", "toolpath": None, "check": None, "cycle_time_s": None, "grip_face": None,
-           "loads": None}
+           "loads": None, "unclampable": None}
     sheet_fields = {} if sheet is None else {
         "material": sheet.material, "thickness": sheet.thickness, "crease": sheet.prep.kind,
         "ligament": sheet.prep.ligament, "bend_radius": sheet.inside_radius, "tool_mass": tool_mass}
@@ -58,6 +58,10 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
         path.write_text(fold_text)
         cell_file = Path(tmp) / Path(cell_name).name
         cell_file.write_bytes(cell_toml.encode("utf-8"))
+        unclampable = clamp_refusal(path, _cell(cell_toml, cell_name))
+        if unclampable:  # the check would fail on it whatever the program: not planned
+            return {**out, "stage": "check", "reason": f"waypoint 0 holds: {unclampable} (the clamp check, run "
+                    "before planning: no program was planned or checked)", "unclampable": unclampable}
         try:  # planned by the plan stage `fabkit toolpath` runs
             program = plan_fold_file(path, cell_file, settings)
         except (InputError, ToleranceError) as exc:  # springback the sheet cannot reach, a crease too tight
@@ -80,6 +84,24 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
         out.update(stage="check", reason=f"{len(report.problems)} problem(s), first: waypoint {first.waypoint} "
                                          f"{first.kind}: {first.detail}")
     return out
+
+
+def clamp_refusal(fold_path: Path, cell) -> str | None:
+    """The check's clamp footprint problem of the FOLD file's panel in `cell`, or None: the clamp's
+    footprint leaves the clamped face where the planner places the panel (`robot.panel_placement`).
+    It is a problem of the check (`sim.check_holds.clamp_problems`, computed as the check computes
+    it, from the same placement) that no program escapes, so a set-up it refuses is refused before
+    its plan and check are paid for."""
+    from fabkit.io.fold import load_fold
+    from robot.holds_record import clamped_faces_of
+    from robot.panel_placement import placed_cell, placement_for
+    from sim.check_holds import clamp_problems
+
+    model = load_fold(fold_path)
+    clamped = clamped_faces_of(model)
+    placed = placed_cell(cell, placement_for(cell, model))
+    problems = clamp_problems(model, placed, clamped, 1)
+    return problems[0].detail if problems else None
 
 
 def carry_over(result: dict, fold_text: str, fold_name: str, note: str) -> dict:

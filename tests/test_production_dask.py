@@ -105,16 +105,15 @@ def test_dask_cluster_matches_serial_and_survives_a_killed_worker(tmp_path):
     from sim.production import program_panel
 
     layout = _layout()
-    kw = dict(cell_toml=CELL.read_text(), cell_name=CELL.name, program=program_panel, timeout=600)
+    # 4 of the 6 panels refolded, programmed and checked (the others end "not selected" in every run)
+    kw = dict(cell_toml=CELL.read_text(), cell_name=CELL.name, program=program_panel, timeout=600,
+              select={p.name for p in layout.panels[:4]})
     serial = run_production(layout, tmp_path / "serial", **kw)
-    assert len(serial.panels) == 6
+    assert len(serial.panels) == 6 and sum(p.reason.startswith("not selected") for p in serial.panels) == 2
     cluster = Cluster(2, tmp_path)
     try:
-        dasked = run_production(layout, tmp_path / "dask", scheduler=cluster.address, **kw)
-        assert _files(tmp_path / "dask") == _files(tmp_path / "serial")
-        assert [p.stage for p in dasked.panels] == [p.stage for p in serial.panels]
-
-        # a second run from scratch; kill one worker as soon as the first panel is finished
+        # a run on the cluster from scratch; kill one worker as soon as the first panel is finished:
+        # the run completes with every file as the serial run wrote it
         out = tmp_path / "killed"
         result = {}
         t = threading.Thread(target=lambda: result.update(run=run_production(layout, out, scheduler=cluster.address,
@@ -134,6 +133,8 @@ def test_dask_cluster_matches_serial_and_survives_a_killed_worker(tmp_path):
         assert not t.is_alive() and "run" in result
         after = _files(out)
         assert after == _files(tmp_path / "serial")  # every panel, the same bytes
+        assert [p.stage for p in result["run"].panels] == [p.stage for p in serial.panels]
+        assert len(finished_before) < len(after)  # the kill came mid-run
         for name, rec in finished_before.items():  # nothing finished before the kill was lost or redone
             assert after[name] == rec
     finally:

@@ -186,13 +186,15 @@ def refold_and_program(task: dict) -> dict:
                                    tool_mass=task.get("tool_mass"))
             out.update({k: prog.get(k) for k in ("stage", "reason", "toolpath", "check", "cycle_time_s", "grip_face",
                                                  "loads")})
+            if prog.get("unclampable"):  # refused by the check's clamp footprint before planning
+                unclampable[setup.clamp] = f"clamp face {setup.clamp}: {prog['unclampable']}"
         base["setups"].append({"clamped_face": setup.clamp, "grip_face": setup.grip,
                                "face_up_on_fixture": out["face_up_on_fixture"], "stage": out["stage"],
                                "reason": out["reason"]})
         if out["stage"] is None:
             return {**out, "setups": base["setups"], "seconds": time.perf_counter() - t0}
         why_not = clamp_problem(out.get("check"), setup.clamp)
-        if why_not:
+        if why_not and setup.clamp not in unclampable:
             unclampable[setup.clamp] = why_not
         first = first or out
     others = "; ".join(f"{Setup(s['clamped_face'], s['grip_face'], s['face_up_on_fixture'] == 'back').describe()}: "
