@@ -220,3 +220,17 @@ def test_sheet_svg_matches_dxf(sheets):
         assert len(cut.findall("s:polygon", ns)) == len(s["panels"])
         labels = [t.text for t in root.find("s:g[@id='LABEL']", ns).findall("s:text", ns)]
         assert set(s["panels"]) <= set(labels)
+
+
+def test_a_nesting_that_fails_its_verification_is_refused(monkeypatch):
+    """An engine's result is verified before anything uses it: two parts on one spot is an error."""
+    from fabkit.errors import ToleranceError
+    from fabkit.nest import engines
+
+    parts = [box(0, 0, 100, 50), box(0, 0, 80, 40)]
+    fine = engines.nest_parts(parts, engines.NestOptions(engine="shelf"))
+    assert fine.verify(parts) == []
+    same_spot = [engines.Placement(part=i, sheet=0, angle=0.0, x=20.0, y=20.0) for i in range(2)]
+    monkeypatch.setattr(engines, "_shelf", lambda parts, options: (same_spot, 1))
+    with pytest.raises(ToleranceError, match=r"shelf nesting fails its verification .*parts 0 and 1 on sheet 0"):
+        engines.nest_parts(parts, engines.NestOptions(engine="shelf"))

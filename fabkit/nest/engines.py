@@ -11,7 +11,7 @@ import shapely
 from shapely import affinity
 from shapely.geometry import Polygon, box
 
-from fabkit.errors import InputError
+from fabkit.errors import InputError, ToleranceError
 
 __all__ = ["NestOptions", "Placement", "Nesting", "nest_parts", "place", "grain_angles", "ENGINES"]
 
@@ -257,6 +257,12 @@ def nest_parts(parts: list[Polygon], options: NestOptions = NestOptions()) -> Ne
         placements, n, notes = nest_rows(parts, options)
     else:
         placements, n, notes = _sparrow(parts, options)
-    return Nesting(options=options, placements=tuple(placements), n_sheets=n,
-                   part_area=float(sum(g.area for g in parts)), seconds=time.perf_counter() - t0,
-                   engine=options.engine, notes=tuple(notes))
+    nesting = Nesting(options=options, placements=tuple(placements), n_sheets=n,
+                      part_area=float(sum(g.area for g in parts)), seconds=time.perf_counter() - t0,
+                      engine=options.engine, notes=tuple(notes))
+    problems = nesting.verify(parts)
+    if problems:  # never a cut file with parts missing, twice, overlapping or off the sheet
+        raise ToleranceError(f"the {options.engine} nesting fails its verification ({len(problems)} problem"
+                             f"{'s' if len(problems) > 1 else ''}; first: {problems[0]}); nothing is nested"
+                             f"{'' if options.engine == 'rows' else ': try --nester rows'}")
+    return nesting
