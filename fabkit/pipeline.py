@@ -311,8 +311,8 @@ def send(program: Program, report: Checked, *, host: str | None = None, power_on
 
     _require_ok(program, "send")
     names = getattr(program.toolpath, "arm_names", ("a",))
-    host, *hosts = controller_hosts((host, *hosts) if host else hosts, program.cell, names,
-                                    os.environ.get("FABKIT_UR_HOST"))
+    (host, *hosts), _ = controller_hosts((host, *hosts) if host else hosts, program.cell, names,
+                                         os.environ.get("FABKIT_UR_HOST"))
     for each in (host, *hosts):
         problem = send_option_problem(each, chunk, stall)
         if problem is not None:
