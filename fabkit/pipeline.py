@@ -29,7 +29,6 @@ layers, because `import fabkit` exposes every stage: `plan`, `check` and `send` 
 """
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 
