@@ -112,7 +112,9 @@ class ProductionRun:
 
     @property
     def robot_time_s(self) -> float:
-        return float(sum(p.cycle_time_s or 0.0 for p in self.panels))
+        """The robot time of the run: the cycle times of the panels that passed every stage (a
+        program whose check failed is not run)."""
+        return float(sum(p.cycle_time_s or 0.0 for p in self.panels if p.ok))
 
 
 def program_task(panel, result, options: ProductionOptions, cell_toml: str, cell_name: str, mat: Stock,

@@ -149,7 +149,7 @@ material {e(mat["name"])} ({mat["thickness_m"] * 1e3:g} mm)</p>
 <tr><th>ok</th><td class="pass">{t["ok"]}</td></tr>
 <tr><th>failed</th><td class="{'fail' if t['failed'] else ''}">{t["failed"]}</td></tr>
 {fail_rows}
-<tr><th>robot time</th><td>{t["robot_time_s"] / 60:.1f} min (sum of the checked programs' cycle times)</td></tr>
+<tr><th>robot time</th><td>{t["robot_time_s"] / 60:.1f} min (sum of the cycle times of the panels that passed every stage)</td></tr>
 <tr><th>sheets</th><td>{t["sheets"]} × {t["sheet_mm"][0]:g} × {t["sheet_mm"][1]:g} mm</td></tr>
 <tr><th>nesting utilisation</th><td>{t["utilisation"]:.1%} (every sheet whole); {t["utilisation_last_sheet_by_length"]:.1%}
 (last sheet by used length)</td></tr>
