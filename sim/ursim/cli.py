@@ -50,10 +50,9 @@ def add_arguments(parser) -> None:
                         help="inject a fault (repeatable): protective_stop, estop, program_stop, drop_rtde, "
                         "stall:SECONDS, slow:DELAY[,EVERY]")
     parser.add_argument("--admin-port", type=int, default=30020, help="fault-injection admin port (default 30020)")
-    parser.add_argument("--rt-priority", type=int, default=10, metavar="N",
-                        help="run the 500 Hz tick thread SCHED_FIFO at priority N, 1-99, and every other stand-in thread at 1, "
-                        "as a controller's real-time loop runs (default 10; without the privilege the log says so and "
-                        "the stand-in runs at normal priority; 0 = normal scheduling)")
+    parser.add_argument("--rt-priority", type=int, default=0, metavar="N",
+                        help="run the 500 Hz tick thread SCHED_FIFO at priority N, 1-99, and every other stand-in thread at 1 "
+                        "(needs the privilege; default 0: SCHED_OTHER at nice -10 when allowed, else normal)")
     parser.add_argument("--robot-mode-data-46", action="store_true",
                         help="send the 46-byte robot mode sub-package of 3.2-3.4 on 30001/30002 instead of "
                         "5.x's 47 bytes (python-urx 0.11 recognises only the older sizes)")
@@ -127,6 +126,12 @@ def config_from_args(args):
         j = bad[0]
         raise InputError(f"joint {j} = {q0[j]:g} rad is outside the {m.name} range [{m.q_min[j]:g}, {m.q_max[j]:g}]",
                          source="--q0" if args.q0 else args.cell)
+    if args.rt_priority == 0:
+        # a share of the CPU above ordinary processes (its threads, started later, inherit it), but
+        # not real-time: several stand-ins of one test run must not preempt a real-time one
+        from robot.realtime import raise_priority
+
+        raise_priority(-10)
     ports = {**FIXED_PORTS, "admin": args.admin_port}
     cfg = ControllerConfig(host=args.host, version=_version(args.version), model=model, q0=q0,
                            robot_mode=ROBOT_POWER_OFF if args.power_off else ROBOT_RUNNING,
