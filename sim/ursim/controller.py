@@ -17,7 +17,7 @@ while it waits on a client. A lock rather than one event loop: the programs (ur_
 script, URScript) are blocking threads on a real controller too, and the tick must keep its
 period whatever a client does (the network is one non-blocking loop, io_loop.py).
 
-Over the project's ~400-line guide (about 560 lines) for that rule's sake: `Controller` is the one
+Over the project's ~400-line guide (about 565 lines) for that rule's sake: `Controller` is the one
 writer of the state the lock guards, and its methods are all of those writes; spreading them over
 modules would spread the ownership rule with them.
 """
