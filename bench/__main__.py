@@ -7,6 +7,7 @@ import importlib
 import pkgutil
 import sys
 import time
+import traceback
 from pathlib import Path
 
 
@@ -24,6 +25,7 @@ def main(argv=None) -> int:
         try:
             importlib.import_module(f"bench.{name}").main()
         except Exception as exc:  # keep running the others, report at the end
+            traceback.print_exc()
             failed.append(f"{name}: {type(exc).__name__}: {exc}")
         print(f"   ({time.perf_counter() - t0:.1f} s)")
     for f in failed:

@@ -38,9 +38,9 @@ def plot_generated(mesh: PolyMesh, path: str | os.PathLike, *, title: str = "", 
     fig = Figure(figsize=(11.0 if has_uv else 6.5, 5.5))
     ax = fig.add_subplot(1, 2 if has_uv else 1, 1, projection="3d")
     ax.add_collection3d(Poly3DCollection([V[f] for f in faces], facecolors=colours, edgecolors="0.35",
-                                         linewidths=0.3))
+                                         linewidths=0.3), autolim=False)
     if crease.any():
-        ax.add_collection3d(Line3DCollection(V[mesh.edges[crease]], colors=list(crease_colours), linewidths=2.0))
+        ax.add_collection3d(Line3DCollection(V[mesh.edges[crease]], colors=list(crease_colours), linewidths=2.0), autolim=False)
     lo, hi = V.min(axis=0), V.max(axis=0)
     centre, half = (lo + hi) / 2, (hi - lo).max() / 2 or 1.0
     ax.set_xlim(centre[0] - half, centre[0] + half)

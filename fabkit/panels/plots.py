@@ -102,7 +102,8 @@ def plot_surface_errors(run, path: Path) -> None:
     cmap = plt.get_cmap("viridis")
     for p, r in zip(run.layout.panels, run.results):
         quads = r.relaxed[p.mesh.topology.face_array]
-        ax.add_collection3d(Poly3DCollection(quads, facecolor=cmap(norm(np.log10(umax[p.id]))), edgecolor="none"))
+        ax.add_collection3d(Poly3DCollection(quads, facecolor=cmap(norm(np.log10(umax[p.id]))), edgecolor="none"),
+                          autolim=False)  # the limits are set below
     allv = np.vstack([r.relaxed for r in run.results])
     lo, hi = allv.min(axis=0), allv.max(axis=0)
     mid, span = (lo + hi) / 2, (hi - lo).max() / 2

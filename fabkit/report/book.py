@@ -101,7 +101,8 @@ def _surface_figures(run, report) -> list[tuple[str, str]]:
             norm = colors.Normalize(*(np.nanmin(v[fin]), np.nanmax(v[fin])) if fin.any() else (0, 1))
             fc = [cm.viridis(norm(x)) if np.isfinite(x) else "#bbbbbb" for x in v]
             fig.colorbar(cm.ScalarMappable(norm=norm, cmap="viridis"), ax=ax, shrink=0.6)
-        ax.add_collection3d(Poly3DCollection(polys, facecolors=fc, edgecolors="k", linewidths=0.2))
+        ax.add_collection3d(Poly3DCollection(polys, facecolors=fc, edgecolors="k", linewidths=0.2),
+                          autolim=False)  # the limits are set below; matplotlib 3.11 autoscaling overflowed
         lo, hi = allp.min(axis=0), allp.max(axis=0)
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
