@@ -112,3 +112,35 @@ def test_without_the_folded_flaps_pad_the_regrip_is_refused(stepped):
     step = [t["problem"] for t in tried if t["problem"].startswith("regrip per fold step")]
     assert step and "crease 1" in step[0] and "folded by nothing held" in step[0] and "fold states 3-6" in step[0]
     assert main(["check", str(path), "--cell", ONE_JIG, "-o", str(d / "one_jig_check.json"), "-q"]) == 1
+
+
+def test_the_tool_is_excluded_from_the_face_each_phase_holds(stepped):
+    """With a cup holder reaching 2 mm short of the TCP, the tool sits within the clearance of the
+    face it holds in both phases: excluded move by move with the phase's face. A PATH.json whose
+    second phase names the first phase's face leaves the held face unexcluded, and the check names it."""
+    import tomllib
+
+    from robot.cell import parse_cell
+    from robot.toolpath import Toolpath, document_sha256
+    from sim.check import check_toolpath
+
+    d, fold, _ = stepped
+    path = d / "path.json"
+    if not path.exists():
+        assert main(["toolpath", str(fold), "--cell", CELL, "-o", str(path), "-q"]) == 0
+    text = Path(CELL).read_text()
+    holder = "pose = [0.0, 0.0, 0.129, 0.0, 0.0, 0.0]\nradius = 0.03\nhalf_length = 0.009"
+    assert holder in text
+    cell = parse_cell(tomllib.loads(text.replace(holder, "pose = [0.0, 0.0, 0.1355, 0.0, 0.0, 0.0]\nradius = 0.03\n"
+                                                         "half_length = 0.0125")), source="long_cup.toml")
+    rep = check_toolpath(Toolpath.load(path), cell, fold=fold)
+    assert rep.ok, [p.detail for p in rep.problems]
+    doc = json.loads(path.read_text())
+    held = doc["phases"][1]["face"]
+    doc["phases"][1]["face"] = doc["phases"][0]["face"]
+    doc["sha256"] = document_sha256(doc)
+    wrong = d / "wrong_face.json"
+    wrong.write_text(json.dumps(doc))
+    rep = check_toolpath(Toolpath.load(wrong), cell, fold=fold)
+    assert any(p.kind in ("clearance", "collision") and p.pair == ("suction_cup", f"face_{held}")
+               for p in rep.problems), [p.detail for p in rep.problems]
