@@ -68,3 +68,22 @@ def test_a_175_deg_zigzag_is_folded_from_its_valley_end_and_sent(tmp_path):
         assert rc == 0 and sent["ok"] and sent["last_completed"] == n - 1, sent
     finally:
         standin.stop()
+
+
+@pytest.mark.parametrize("fold", [60.0, 175.0])
+def test_a_zigzag_is_clamped_at_its_valley_end_in_any_order_and_unit(fold):
+    """The clamp end is chosen from the fold directions, so shuffled vertices and faces and a
+    millimetre copy give the same face (at 175 deg the inferred strip order starts at the mountain
+    end, at 60 deg at the valley end: the rule, not the order, decides)."""
+    from fabkit.structure import panel_structure
+    from structure_panels import shuffled
+
+    tagged = reflect_tagged(2, fold)
+    mesh = plain(tagged)
+    s = panel_structure(mesh)
+    assert int(tagged.face_data["strip"][s.clamp_face]) == 0
+    perm, _, _ = shuffled(mesh, seed=4)
+    p = panel_structure(perm)
+    assert np.allclose(perm.face_centroids[p.clamp_face], mesh.face_centroids[s.clamp_face], atol=1e-12)
+    mm = panel_structure(mesh.with_vertices(mesh.vertices * 1000.0))
+    assert mm.clamp_face == s.clamp_face
