@@ -2,8 +2,10 @@
 
 A plan is a list of phases over one refold sequence (`fabkit.refold` schedules with steps). A
 phase folds some crease rows; in it the clamp (and any jig) holds faces fixed, each arm holds one
-face, creases folded in earlier phases are set (aluminium keeps its fold: they are locked in the
-hold model) and creases not yet folded stay flat. Every state of every phase and the motion
+face, creases folded in earlier phases keep their angles and creases not yet folded stay flat.
+Neither is assumed to hold itself: a folded crease is not locked in the hold model (a scored
+crease is a hinge), and a wing lying still is not held by its weight, so the strip beyond every
+crease the phase does not fold is held by a jig (flat, or where the strip lies folded) or an arm. Every state of every phase and the motion
 between states must pass `fabkit.holds` with the phase's held faces, the clamped faces must stay
 where they are (they are fixed in the world: refold's states are in the main clamp's frame, so the
 other clamped faces must not move), and set creases must keep their angles. Two ways are tried:
@@ -11,8 +13,9 @@ other clamped faces must not move), and set creases must keep their angles. Two 
 - **together**: one phase, the clamp on its strip and one arm on every other strip; needs as many
   arms as strips beyond the clamp's (two for a tri-fold);
 - **one crease at a time** (regrip): a phase per crease row, outward from the clamp; an arm grips the
-  strip beyond the crease it folds, and every strip beyond a crease still flat is held too: by a
-  jig (`jig=True`) or by the other arm ("one holds while the other folds"). Curved creases couple:
+  strip beyond the crease it folds, and every strip beyond another crease (still flat, or folded
+  in an earlier phase) is held too: by a jig (`jig=True`) or by the other arm ("one holds while
+  the other folds"). Curved creases couple:
   folding one bends the strip between and moves the next, so a flat-held neighbour is moved, and
   the phase fails naming it.
 
@@ -126,7 +129,7 @@ def _verify(plan_phases, seq, model: HoldModel, rows: dict, between: int) -> lis
     out = []
     for ph in plan_phases:
         a, b = ph.states
-        m = model.with_locked(np.concatenate([rows[r] for r in ph.set_creases])) if ph.set_creases else model
+        m = model                                  # set creases are hinges: what holds them is in the held faces
         problems = list(ph.problems)
         reports = holds_along(m, seq.angles[a:b + 1], ph.held_faces, between=between)
         reports = tuple((a + s, r) for s, r in reports)
@@ -214,8 +217,8 @@ def fold_plans(flat, target, *, arms: int = 1, clamp_face: int | None = None, fr
                 break
             first = int(s_idx[0]) - 1
             beyond = r + 1 if cs <= r else r              # the strip on the far side of crease r
-            flat_rows = [q for q in order[g + 1:]]
-            hold = sorted({(q + 1 if cs <= q else q) for q in flat_rows})
+            other_rows = [q for q in order if q != r]      # still flat, or folded in an earlier phase
+            hold = sorted({(q + 1 if cs <= q else q) for q in other_rows})
             grips = [(0, pick[beyond])]
             jigs = []
             for k in hold:

@@ -20,6 +20,15 @@ The same-crease regrip (`regrip_splits`, `plan_regrip`): a fold that no single g
 175 deg valley closes the wing over a cup on the front; the back of the flat panel faces the bench)
 is folded on the front side to an intermediate state, where the grip face stands near vertical,
 released, and finished on the back side.
+
+The crease-by-crease regrip (`step_phases`): a FOLD file whose states fold the crease rows one step
+after another (`fabkit refold --steps`, `frame_fabkit:step`) is planned one phase per step, each
+gripping the middle-row face that the step moves farthest (the strip beyond the crease it folds).
+What holds the strips the step does not fold (a strip still flat, a strip folded in an earlier
+step) is not assumed: a folded crease does not stay folded because it was folded, and a wing lying
+still is not held by its weight. The cell's jigs hold them where a face lies on a jig
+(`robot.jig_holds`), and the check proves the holds in every state; without them the check refuses
+the program naming the free crease.
 """
 from __future__ import annotations
 
@@ -31,7 +40,8 @@ from fabkit.errors import InputError
 from robot.holds_record import HOLDING_OPS
 from robot.transfer import TRANSFER_LIFTS, TransferError, lifted_waypoint
 
-__all__ = ["PhaseSpec", "plan_phases", "phases_of", "regrip_splits", "plan_regrip", "regrip_faces", "with_regrip", "REGRIP_SPLITS_TRIED"]
+__all__ = ["PhaseSpec", "plan_phases", "phases_of", "regrip_splits", "plan_regrip", "regrip_faces", "step_phases",
+           "with_regrip", "REGRIP_SPLITS_TRIED"]
 
 #: Split states tried per face for a same-crease regrip (nearest a 90 deg turn of the grip face first).
 REGRIP_SPLITS_TRIED = 1
@@ -244,14 +254,46 @@ def plan_regrip(cell, frames_of, faces, *, options, source: dict | None = None, 
     return None, tried
 
 
+def step_phases(fold_model, frames) -> list[PhaseSpec] | None:
+    """The phases of a FOLD file folded step by step (module docstring): one front-side `PhaseSpec`
+    per step over the state before its first and its states, gripping the middle-row face of
+    `frames` (`fabkit.frames.FaceFrames`) whose centroid travels farthest during the step (ties by
+    its final centroid's coordinates, never by face order). None for a file of one step (or none)."""
+    steps = [f.data.get("fabkit:step") for f in fold_model.frames]
+    if len(steps) + 1 == frames.n_states:       # a flat key frame put first (fabkit.frames.fold_positions)
+        steps = [-1] + steps
+    if len(steps) != frames.n_states or not all(isinstance(k, int) and not isinstance(k, bool) for k in steps):
+        return None
+    labels = sorted({k for k in steps if k >= 0})
+    if len(labels) < 2:
+        return None
+    specs = []
+    for k in labels:
+        idx = [i for i, v in enumerate(steps) if v == k]
+        first, last = max(idx[0] - 1, 0), idx[-1]
+        if idx != list(range(idx[0], last + 1)) or (specs and first != specs[-1].last):
+            return None                          # steps not folded one after another
+        best = None
+        for f in frames.faces:
+            c = frames.of_face(int(f))[first:last + 1, :3, 3]
+            key = (-round(float(np.linalg.norm(c - c[:1], axis=1).max()), 9), *np.round(c[-1], 9).tolist())
+            if best is None or key < best[0]:
+                best = (key, int(f))
+        specs.append(PhaseSpec(best[1], "front", first, last))
+    if specs[0].first != 0 or specs[-1].last != frames.n_states - 1:
+        return None
+    return specs
+
+
 def with_regrip(cell, frames, fold_model, *, options, source: dict | None = None, clamped_faces=(), placement: dict | None = None,
                 accept, variants=()):
     """`robot.grip_choice.plan_panel` with the checker `accept`, and when no single grip passes
-    (none plans, or the checker refuses every one) the same-crease regrip (`plan_regrip` on the
-    `regrip_faces` of `fold_model`, the panel's FOLD model; the back side at the standoff of the
-    back-side variant in `variants`). Returns the first program that
-    passes, else the single-grip program the check will refuse (its `tried` naming the regrips
-    refused too); raises `PlanningError` when nothing plans."""
+    (none plans, or the checker refuses every one) a regrip per fold step when the FOLD file
+    `fold_model` folds step by step (`step_phases`), then the same-crease regrip (`plan_regrip` on
+    the `regrip_faces` of `fold_model`; the back side at the standoff of the back-side variant in
+    `variants`). Returns the first program that passes, else the single-grip program the check
+    will refuse (its `tried` naming the regrips refused too); raises `PlanningError` when nothing
+    plans."""
     from robot.grip_choice import plan_panel
     from robot.planner import PlanningError
 
@@ -268,14 +310,29 @@ def with_regrip(cell, frames, fold_model, *, options, source: dict | None = None
         single, failure = None, exc
     if single is not None and verdicts.get(id(single.toolpath)) is None:
         return single
+    tried = []
+    specs = step_phases(fold_model, frames)
+    if specs is not None:        # folded step by step: a regrip per step
+        what = "regrip per fold step (" + ", ".join(f"face {p.face} states {p.first}-{p.last}" for p in specs) + ")"
+        try:
+            res = plan_phases(cell, frames, specs, options=options,
+                              source={**(source or {}), "grip_face": specs[0].face}, clamped_faces=clamped_faces,
+                              placement=placement)
+            problem = accept(res)
+        except PlanningError as exc:
+            problem = str(exc)
+        if problem is None:
+            return replace(res, tried=tuple(single.tried if single is not None else ()))
+        tried.append((specs[0].face, f"{what}: {problem}"))
     from fabkit.frames import face_frames_of
 
     back = next(v for v in variants if v.grip_side == "back")
     middle = {int(f) for f in frames.faces}
-    res, tried = plan_regrip(cell, lambda f: frames if f in middle else face_frames_of(fold_model, f),
-                             regrip_faces(fold_model, clamped_faces), options=options, source=source,
-                             clamped_faces=clamped_faces, placement=placement, accept=accept,
-                             back_standoff=back.grip_standoff)
+    res, same = plan_regrip(cell, lambda f: frames if f in middle else face_frames_of(fold_model, f),
+                            regrip_faces(fold_model, clamped_faces), options=options, source=source,
+                            clamped_faces=clamped_faces, placement=placement, accept=accept,
+                            back_standoff=back.grip_standoff)
+    tried += same
     before = single.tried if single is not None else ()
     if res is not None:
         return replace(res, tried=tuple(before) + tuple(tried))

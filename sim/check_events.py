@@ -7,7 +7,8 @@ speeds, contacts (MuJoCo) and the per-waypoint series the report plots.
 - `singular`: a closed-form singularity factor (`robot.kinematics.singularity_factors`) below
   its threshold (wrist |sin q5|, elbow |sin q3|, shoulder reach in metres);
 - `collision`: arm/tool geoms that touch each other or touch obstacles or the panel (named pair,
-  depth); the tool against its grip face is expected and excluded in the model;
+  depth); the tool against its grip face is expected and excluded in the model (in a program in
+  phases gripping different faces: move by move, with the face the phase holds);
 - `clearance`: arm/tool closer to an obstacle or the panel than the cell's clearance;
 - `speed`: a joint faster than the robot's / cell's joint speed limit at the planned TCP speed,
   or a move asking for more TCP speed or acceleration than the cell allows.
@@ -139,6 +140,11 @@ def collision_events(cell, panel: PanelModel | None, dense: Dense, built=None, o
         grip = np.flatnonzero(names.geom_face == names.grip_face)
         wrist3 = [g for g in range(m.ngeom) if part_name(names.geom[g]) == "wrist_3"]
         touch_only[np.ix_(wrist3, grip)] = touch_only[np.ix_(grip, wrist3)] = True
+    per_move = None if panel is None else panel.grip_by_waypoint
+    if per_move is not None:   # phases gripping different faces: the held piece per move
+        tool = group == GROUP_TOOL
+        wrist = np.array([part_name(n) == "wrist_3" for n in names.geom])
+        per_move = np.asarray(per_move, dtype=np.int64)
     clearance = float(cell.limits.clearance)
     part = [part_name(n) for n in names.geom]
     events = []
@@ -165,6 +171,9 @@ def collision_events(cell, panel: PanelModel | None, dense: Dense, built=None, o
             if robot[g2] and not robot[g1]:
                 g1, g2 = g2, g1
             dist = float(dist)
+            if per_move is not None and per_move[dense.waypoint[j]] >= 0 and names.geom_face[g2] == \
+                    per_move[dense.waypoint[j]] and (tool[g1] or (wrist[g1] and dist >= 0)):
+                continue      # the tool on the face it holds (excluded), the flange touching it
             if touch_only[g1, g2]:
                 if dist >= 0:
                     continue

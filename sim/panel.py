@@ -175,7 +175,9 @@ class PanelModel:
     `pos` (S, F, 3) and `quat` (S, F, 4, scalar first) are in the world frame (fixture applied);
     `grip_face` the index of the piece the tool holds (its contact with the tool is excluded), or
     None; `fit_residual` (S, F) how far each state departs from a rigid motion of each face (m);
-    `face_ids` the panel's id of each piece (polygon id), for names.
+    `face_ids` the panel's id of each piece (polygon id), for names; `grip_by_waypoint` for a
+    program in phases that grip different faces: per waypoint the piece the tool holds on the move
+    into it (-1: none), its contact with the tool excluded per move instead (`grip_face` None).
     """
 
     pieces: PanelPieces
@@ -184,6 +186,7 @@ class PanelModel:
     grip_face: int | None = None
     fit_residual: np.ndarray | None = None
     face_ids: tuple[int, ...] = ()
+    grip_by_waypoint: tuple[int, ...] | None = None
 
     @property
     def n_states(self) -> int:

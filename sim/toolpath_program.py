@@ -116,11 +116,27 @@ def source_panel(tp, cell, model, path, thickness: float | None = None, offset: 
     springback-compensated ones a sheet program follows), `thickness` [m] thick, its slab centred
     `offset` [m] along the faces' front normals. `InputError` for a grip face not in the panel or
     too few states."""
+    from dataclasses import replace
+
+    from robot.phased_planner import phases_of
+
     try:
-        panel = panel_from_fold(model, cell.fixture, grip_face_id=grip_face_of(tp),
+        phases = phases_of(tp)
+    except ValueError as exc:
+        raise InputError(str(exc), source="PATH.json") from None
+    try:
+        panel = panel_from_fold(model, cell.fixture, grip_face_id=None if phases else grip_face_of(tp),
                                 thickness=thickness or DEFAULT_THICKNESS, source=str(path), offset=offset)
     except ValueError as exc:
         raise InputError(str(exc), source=str(path)) from None
+    if phases:   # phases grip different faces: the tool's contact is excluded with the phase's face
+        ids, grip = list(panel.face_ids), [-1] * len(tp.waypoints)
+        for ph in phases:
+            if ph["face"] not in ids:
+                raise InputError(f"grip face {ph['face']} is not a face of the panel", source=str(path))
+            for i in range(ph["waypoints"][0], ph["waypoints"][1] + 1):
+                grip[i] = ids.index(ph["face"])
+        panel = replace(panel, grip_by_waypoint=tuple(grip))
     top = max((w.state for w in tp.waypoints), default=0)
     if top > panel.n_states - 1:
         raise InputError(f"the toolpath uses fold state {top} but the file has {panel.n_states} states",

@@ -63,10 +63,15 @@ def test_straight_creases_one_arm_regrip_with_a_jig():
     assert plan.ok and plan.strategy == "one crease at a time"
     p0, p1 = plan.phases
     assert p0.creases == (0,) and p1.creases == (1,) and p1.set_creases == (0,)
-    assert len(p0.jig_faces) == 1 and p1.jig_faces == ()
+    # a jig holds the strip beyond the other crease in each phase: flat in phase 0, folded in phase 1
+    # (a folded crease is a hinge, not locked)
+    strip = np.asarray(flat.face_data["strip"])
+    assert len(p0.jig_faces) == 1 and len(p1.jig_faces) == 1
+    assert int(strip[p0.jig_faces[0]]) == int(strip[dict(p1.grips)[0]])
+    assert int(strip[p1.jig_faces[0]]) == int(strip[dict(p0.grips)[0]])
     assert dict(p0.grips)[0] != dict(p1.grips)[0] and plan.regrips == 1
     assert p0.states[1] == p1.states[0]
-    assert plan.score == (2, 1, 1)
+    assert plan.score == (2, 1, 2)
     # two arms: together, no regrip, scores better
     two = plan_fold_sequence(flat, target, arms=2, frames=4)
     assert two.ok and two.strategy == "together" and two.score < plan.score

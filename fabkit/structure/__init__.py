@@ -230,7 +230,7 @@ def panel_structure(mesh: PolyMesh, *, use_tags: bool = True, crease_edges=None,
         middle[row] = 1
         source["middle_row"] = "inferred"
     mid_creases = _middle_creases(mesh, crease, crease_row, strip, column, row, ribbons[best] if best >= 0 else None)
-    clamp, grips = _clamp_and_grips(mesh, strip, row)
+    clamp, grips = _clamp_and_grips(mesh, strip, row, _valley_rows(crease_row, fold, mid_creases))
     return PanelStructure(crease=crease, fold_angle=fold, assignment=assignment, crease_row=crease_row,
                           chains=tuple(np.asarray(c, np.int64) for c in chains), strip=strip, column=column,
                           middle=middle, middle_row=np.asarray(row, np.int64), middle_creases=mid_creases,
@@ -283,12 +283,22 @@ def _middle_creases(mesh, crease, crease_row, strip, column, row, ribbon) -> np.
     return np.unique(np.asarray(out, np.int64))
 
 
-def _clamp_and_grips(mesh, strip, row) -> tuple[int, np.ndarray]:
-    """The middle-row face of the first strip (an end of the row), and the other middle-row faces
-    farthest first. Clamping one end and gripping the other holds every crease between: cutting
-    any crease row leaves the clamp on one side and the grip on the other (`fabkit.holds`), and a
-    chain of curved creases is one mechanism, so the two ends fix it; a clamp in the middle leaves
-    one wing held by nothing in a one-arm program."""
+def _valley_rows(crease_row, fold, mid_creases) -> set[int]:
+    """Crease rows whose middle-column edges fold as valleys (mean fold angle > FLAT_ANGLE)."""
+    rows = crease_row[mid_creases]
+    return {int(r) for r in np.unique(rows) if float(fold[mid_creases[rows == r]].mean()) > FLAT_ANGLE}
+
+
+def _clamp_and_grips(mesh, strip, row, valley_rows=frozenset()) -> tuple[int, np.ndarray]:
+    """The middle-row face of an end strip of the row, and the other middle-row faces farthest
+    first. Clamping one end and gripping the other holds every crease between: cutting any crease
+    row leaves the clamp on one side and the grip on the other (`fabkit.holds`), and a chain of
+    curved creases is one mechanism, so the two ends fix it; a clamp in the middle leaves one wing
+    held by nothing in a one-arm program. The end is the first strip, unless the crease beside it
+    is a mountain and the crease beside the last strip a valley (`valley_rows`: crease rows that
+    fold as valleys): the panel is clamped front up, and from a mountain the rest of the panel
+    folds behind the clamped face (toward the clamp post and the table, where a letter or zigzag
+    fold ends tucked under the clamp), from a valley it folds in front of it, toward the arm."""
     row = np.asarray(row, np.int64)
     if len(row) == 0:
         c = mesh.face_centroids
@@ -299,6 +309,9 @@ def _clamp_and_grips(mesh, strip, row) -> tuple[int, np.ndarray]:
         return int(near[np.lexsort((keys[:, 2], keys[:, 1], keys[:, 0]))[0]]), np.zeros(0, np.int64)
     strips = strip[row]
     want = int(strips.min())
+    last = int(strips.max())
+    if last > want and want not in valley_rows and last - 1 in valley_rows:
+        want = last
     clamp = int(row[np.argsort(np.abs(strips - want), kind="stable")[0]])
     others = row[row != clamp]
     d = np.linalg.norm(mesh.face_centroids[others] - mesh.face_centroids[clamp], axis=1)
