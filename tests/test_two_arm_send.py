@@ -288,3 +288,90 @@ def test_one_urscript_per_arm_meets_at_every_sync_waypoint(job, tmp_path):
     finally:
         for s in arms.values():
             s.stop()
+
+
+def test_a_urscript_arm_whose_partner_does_not_come_halts_after_the_timeout(job, tmp_path):
+    """The handshake's time-out on two wired stand-ins: arm b's program is paused 2.5 s before its
+    grip (a `sleep` put into its text), the time-out is 1 s. Arm a waits 1 s at the grip (sync
+    waypoint 2), puts its output back, and halts naming the sync waypoint and arm b; arm b arrives
+    later, does not pass, waits its own 1 s and halts naming the same sync waypoint. Both stand
+    at the grip."""
+    import random
+    import socket
+
+    from robot.arms_urscript import HANDSHAKE_INPUT, HANDSHAKE_OUTPUT, write_arm_urscripts
+    from robot.urscript import PROGRESS_REGISTER
+
+    atp = job[0].toolpath
+    k = atp.sync[0]
+    scripts = write_arm_urscripts(atp, timeout_s=1.0, start_window_s=0.0)
+    mark = f"  # waypoint {k}: "
+    assert scripts["b"].count(mark) == 1
+    scripts["b"] = scripts["b"].replace(mark, "  sleep(2.5)\n" + mark)  # arm b late by 2.5 s
+    hosts = dict(zip(("a", "b"), free_loopback_hosts(random.Random())))
+    peer = {"a": "b", "b": "a"}
+    arms, seen = {}, []
+    try:
+        for arm in ("a", "b"):
+            arms[arm] = StandIn("--cell", str(DUAL), "--arm", arm, "-v", "--wire-output",
+                                f"{HANDSHAKE_OUTPUT}:{hosts[peer[arm]]}:{HANDSHAKE_INPUT}",
+                                log=tmp_path / f"ursim_{arm}.log", host=hosts[arm])
+        for arm in ("a", "b"):
+            with socket.create_connection((hosts[arm], 30002), timeout=5.0) as s:
+                s.sendall(scripts[arm].encode("ascii"))
+        deadline = time.monotonic() + 30.0
+        while time.monotonic() < deadline:
+            st = {arm: s.state() for arm, s in arms.items()}
+            seen.append({arm: (time.monotonic(), st[arm]["out_int"][PROGRESS_REGISTER], st[arm]["runtime_state"],
+                               bool(st[arm]["digital_out"] & (1 << HANDSHAKE_OUTPUT))) for arm in st})
+            if len(seen) > 10 and all(v[2] == 1 for v in seen[-1].values()):
+                break
+            time.sleep(0.02)
+        else:
+            pytest.fail(f"the programs did not stop: {seen[-1]}")
+        assert max(at["b"][1] for at in seen) == k and max(at["a"][1] for at in seen) == k  # nobody passed
+        waited = {}
+        for arm, s in arms.items():
+            log = s.log_text()
+            msg = f"arm {arm} halted at sync waypoint {k} (1 of {len(atp.sync)}): arm {peer[arm]} did not arrive within 1.0 s"
+            assert f"popup: {msg}" in log and f"textmsg: fabkit: {msg}" in log and "halted (line" in log, log[-1500:]
+            np.testing.assert_allclose(s.state()["q"], atp.arm(arm).waypoints[k].q, atol=1e-6)
+            out = [c for c in s.admin("record")["commands"] if c["command"] == "set_standard_digital_out"
+                   and c["output"] == HANDSHAKE_OUTPUT]
+            assert [c["value"] for c in out] == [False, True, False], out  # reset, at sync 1, put back
+            waited[arm] = out[2]["t"] - out[1]["t"]  # controller time from arriving to the time-out
+            up = [at[arm][0] for at in seen if at[arm][3]]
+            print(f"arm {arm}: waited {waited[arm]:.3f} s of controller time at sync waypoint {k}; its output "
+                  f"was up in polls {up[-1] - up[0]:.2f} s apart")
+            assert 1.0 <= waited[arm] <= 1.0 + 0.01
+            assert 0.8 <= up[-1] - up[0] <= 2.0  # wall clock, polled every 20 ms on a loaded machine
+        up = {arm: [at[arm][0] for at in seen if at[arm][3]] for arm in arms}
+        assert up["b"][0] > up["a"][-1]  # b arrived after a had timed out and put its output back
+    finally:
+        for s in arms.values():
+            s.stop()
+
+
+def test_the_default_handshake_timeout_is_the_longest_segment_plus_the_margin(job):
+    """The default time-out (`robot.arms_urscript.default_timeout`) is the longest segment between
+    sync waypoints of either arm in the motion model plus 2 s, rounded up to 0.1 s, so an arm that
+    runs the program at full speed never trips it; every sync wait carries it, the start line and
+    the first sync waypoint 10 s more."""
+    from robot.arms_urscript import START_WINDOW_S, TIMEOUT_MARGIN_S, default_timeout, write_arm_urscripts
+    from robot.motion import toolpath_cycle_time
+    from sim.ursim.urscript import parse_program
+
+    atp = job[0].toolpath
+    bounds = [0, *atp.sync, len(atp) - 1]
+    longest = 0.0
+    for name, tp in atp.arms:  # the segments from the cycle time's own per-move times and the dwells
+        seg = toolpath_cycle_time(tp).segments
+        grip = tp.extra["grip"]
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            dwell = {"grip": grip["grip_dwell_s"], "release": grip["release_dwell_s"]}.get(tp.waypoints[b].op, 0.0)
+            longest = max(longest, float(seg[a:b].sum()) + dwell)
+    timeout = default_timeout(atp)
+    assert longest + TIMEOUT_MARGIN_S <= timeout < longest + TIMEOUT_MARGIN_S + 0.1 and 5.0 < longest < 60.0
+    for arm, text in write_arm_urscripts(atp).items():
+        waits = [s.kwargs["timeout"] for s in parse_program(text)[1] if s.name == "wait_standard_digital_in"]
+        assert waits == pytest.approx([timeout + START_WINDOW_S] * 2 + [timeout] * (len(atp.sync) - 1), abs=1e-12)
