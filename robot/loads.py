@@ -17,6 +17,10 @@ relative to the rigid pad, and M must stay within the pad's moment of resistance
 forces times their lever arms, the lip farthest from the crease lifting first).
 The pad is the cell's `[tool.pad]`, else one cup of the `suction_cup` shape's diameter.
 
+In a two-arm program each arm carries the creases between the clamp and its grip that no other
+arm's grip lies before (`toolpath_loads(other_grips=)`), with its own share of the panel as payload
+(`robot.arms_sheet`).
+
 A failed check names the crease, the state and the remedy (groove the crease to a ligament that
 fits, a bigger arm, push instead of pull, a bigger pad, two arms). Not modelled: the arm's own
 link weights and the dynamic loads of acceleration (the ratings include them at the catalogue's
@@ -271,14 +275,23 @@ def payload_record(cell, waypoints, panel_mass: float, panel_cog, tool_mass: flo
 
 
 def toolpath_loads(spec, model, creases, grip_face: int, cell, payload_mass: float,
-                   side: str = "front") -> LoadReport:
+                   side: str = "front", other_grips=()) -> LoadReport:
     """The load check of a fold program: every crease the arm folds (`fabkit.sheet.creases.arm_folds`,
-    from the design FOLD `model`) in every state, on the cell's arm and cup gripping `side`."""
+    from the design FOLD `model`) in every state, on the cell's arm and cup gripping `side`.
+    `other_grips`: faces other arms hold (a two-arm program); a crease between the clamp and such a
+    face that lies nearer the clamp than this arm's grip (its creases a strict part of this arm's)
+    is folded by that arm, not this one."""
     from fabkit.sheet.creases import arm_folds
     from fabkit.sheet.loads import fold_moment
 
     fixed = model.file_data.get("fabkit:fixed_face")
-    folds = arm_folds(model, creases, grip_face, None if fixed is None else int(fixed), side=side)
+    fixed = None if fixed is None else int(fixed)
+    folds = arm_folds(model, creases, grip_face, fixed, side=side)
+    mine = {f.crease.name for f in folds}
+    for g in other_grips:
+        theirs = {f.crease.name for f in arm_folds(model, creases, int(g), fixed, side=side)}
+        if theirs < mine:
+            folds = [f for f in folds if f.crease.name not in theirs]
     states: list[list[CreaseLoad]] = [[] for _ in range(model.n_frames)]
     for f in folds:
         states[f.state].append(CreaseLoad(fold_moment(spec, f.crease.length, f.crease.name), f.lever, f.pull))

@@ -90,7 +90,9 @@ def sheet_of_toolpath(tp):
 def toolpath_load_check(tp, spec, design_model, cell, grip_face: int) -> LoadReport:
     """The fold loads of a toolpath's program (`robot.loads.toolpath_loads`) on `cell`, with the
     payload the toolpath declares while it holds the panel (`payload.held_mass_kg`; without a payload
-    record: `DEFAULT_TOOL_MASS` + the panel's mass)."""
+    record: `DEFAULT_TOOL_MASS` + the panel's mass). For one arm of a two-arm program (its view
+    `ArmsToolpath.arm`), the creases the other arms' grips fold are not its own
+    (`robot.arms_sheet.other_grips`)."""
     from fabkit.sheet import panel_mass
     from fabkit.sheet.creases import panel_creases
 
@@ -100,8 +102,10 @@ def toolpath_load_check(tp, spec, design_model, cell, grip_face: int) -> LoadRep
     else:
         flat = design_model.mesh()
         held = DEFAULT_TOOL_MASS + panel_mass(spec, flat.vertices, flat.triangulate()[0]).mass
+    from robot.arms_sheet import other_grips
+
     return toolpath_loads(spec, design_model, panel_creases(design_model), grip_face, cell, held,
-                          side=grip_side_of(tp))
+                          side=grip_side_of(tp), other_grips=other_grips(tp, grip_face))
 
 
 def grip_side_of(tp) -> str:
