@@ -37,17 +37,21 @@ def compensated_states(model, spec, source: str = "SEQ.fold"):
 def sheet_records(tp, spec, design_model, compensated, cell, grip_face: int,
                   tool_mass: float | None = None, design_surface: str = "top"):
     """The toolpath with its `sheet` and `payload` records (module docstring) and the
-    `robot.loads.LoadReport` of its fold loads. `tool_mass` None: `DEFAULT_TOOL_MASS`;
+    `robot.loads.LoadReport` of its fold loads; `cell` the cell file's cell (the toolpath's
+    placement is applied here). `tool_mass` None: `DEFAULT_TOOL_MASS`;
     `design_surface`: which surface of the sheet the FOLD's faces are (top, mid, bottom), the
     planner having added `fabkit.sheet.front_face_offset` to the grip standoff."""
     from fabkit.materials import material_toml
     from fabkit.sheet import front_face_offset
     from fabkit.sheet import panel_mass
 
+    from robot.panel_placement import placed_cell, placement_of
+
     mass = DEFAULT_TOOL_MASS if tool_mass is None else float(tool_mass)
     flat = design_model.mesh()
     pm = panel_mass(spec, flat.vertices, flat.triangulate()[0])
-    payload = payload_record(cell, tp.waypoints, pm.mass, pm.cog, mass)
+    # the panel's CoG where the program placed the panel (its placement record), not the cell's fixture
+    payload = payload_record(placed_cell(cell, placement_of(tp.extra)), tp.waypoints, pm.mass, pm.cog, mass)
     loads = toolpath_loads(spec, design_model, compensated.creases, grip_face, cell, mass + pm.mass,
                            side=grip_side_of(tp))
     sheet = {**compensated.summary(), "material_toml": material_toml(spec.material), "tool_mass_kg": mass,
