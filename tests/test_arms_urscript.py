@@ -39,3 +39,17 @@ def test_a_malformed_bounded_wait_is_refused_naming_the_line(edit, match):
     lines = edit(handshake_lines(True, timeout_s=3.0, previous=False, message="m"))
     with pytest.raises(ScriptError, match=match):
         parse_program(_program(lines))
+
+
+@pytest.mark.parametrize("value", ["-1", "0", "nan"])
+def test_fabkit_toolpath_refuses_a_handshake_timeout_that_is_not_a_positive_time(value, tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    r = subprocess.run([sys.executable, "-m", "fabkit", "toolpath", str(root / "tests" / "data" / "fold" / "pleat-xz.fold"),
+                        "--cell", str(root / "cells" / "dual_ur10e.toml"), "-o", str(tmp_path / "p.json"),
+                        "--handshake-timeout", value], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "--handshake-timeout" in r.stderr and "not a positive time" in r.stderr, r.stderr
+    assert not (tmp_path / "p.json").exists()

@@ -126,6 +126,13 @@ def test_each_arm_carries_the_crease_to_its_wing_with_its_own_payload(planned, f
         assert [(c["crease"], c["demand"]) for st in got["states"] for c in st["checks"]] == \
             [(v.crease, v.demand) for v in one.verdicts]
     assert checked.report.loads["ok"] and checked.report.loads["arm"] == "ur10e+ur10e"
+    from fabkit.report.sheet import sheet_section
+
+    html = sheet_section(atp.to_json(), checked.report.to_json())
+    for arm in ("a", "b"):
+        held = atp.arm(arm).extra["payload"]["held_mass_kg"]
+        assert f"arm {arm}: payload declared: tool 1.000 kg, tool + its share of the panel {held:.3f} kg" in html
+        assert f"<td>arm {arm}: crease " in html
 
 
 def test_a_crease_nearer_another_arms_grip_is_that_arms(folds):
