@@ -170,7 +170,8 @@ def _floor(x: float, step: float) -> float:
     return math.floor(x / step + 1e-9) * step
 
 
-def _remedy(material, cl: CreaseLoad, allowed: float, arm: ArmRating, bigger_by: str, extra: str = "") -> str:
+def _remedy(material, cl: CreaseLoad, allowed: float, arm: ArmRating, bigger_by: str, extra: str = "",
+            two_arms: bool = True) -> str:
     """Remedy text: the preparation that brings the crease's moment to `allowed` [N m] (the smallest
     moment every arm check of this crease accepts), a bigger arm (`bigger_by` wrist or payload),
     `extra`, two arms."""
@@ -189,16 +190,18 @@ def _remedy(material, cl: CreaseLoad, allowed: float, arm: ArmRating, bigger_by:
         parts.append(f"a bigger arm ({bigger[0].model})")
     if extra:
         parts.append(extra)
-    parts.append("two arms sharing the fold")
+    if two_arms:
+        parts.append("two arms sharing the fold")
     return "; ".join(parts)
 
 
 def check_fold_loads(states, arm: ArmRating, cup: VacuumCup, *, payload_mass: float,
-                     material=None, pad: CupPad | None = None) -> LoadReport:
+                     material=None, pad: CupPad | None = None, two_arms_remedy: bool = True) -> LoadReport:
     """Check every `CreaseLoad` of every state (`states`: a sequence of sequences, index = state).
 
     payload_mass [kg]: tool + panel. material: names the remedy (ligament or perforation). pad: the
-    cups that hold (default: `cup` alone)."""
+    cups that hold (default: `cup` alone). two_arms_remedy: name "two arms sharing the fold" among
+    the remedies (not for an arm of a two-arm program, whose arms fold a crease each)."""
     pad = single_cup_pad(cup) if pad is None else pad
     verdicts: list[LoadVerdict] = []
     weight = payload_mass * GRAVITY
@@ -212,12 +215,13 @@ def check_fold_loads(states, arm: ArmRating, cup: VacuumCup, *, payload_mass: fl
             force = m.high / lever
             allowed = min(arm.wrist_torque, max(rated - weight, 0.0) * lever)
             verdicts.append(LoadVerdict(s, m.crease, "wrist couple", m.high, arm.wrist_torque, "N m",
-                                        m.high <= arm.wrist_torque, _remedy(material, cl, allowed, arm, "wrist")))
+                                        m.high <= arm.wrist_torque, _remedy(material, cl, allowed, arm, "wrist", two_arms=two_arms_remedy)))
             d_need = m.high / (rated - weight) if rated > weight else math.inf
             verdicts.append(LoadVerdict(
                 s, m.crease, "fold force + payload weight", force + weight, rated, "N", force + weight <= rated,
                 _remedy(material, cl, allowed, arm, "payload",
-                        f"grip at least {math.ceil(d_need * 1000)} mm from the crease" if math.isfinite(d_need) else "")))
+                        f"grip at least {math.ceil(d_need * 1000)} mm from the crease" if math.isfinite(d_need) else "",
+                        two_arms=two_arms_remedy)))
             if cl.pull:
                 need = force + weight
                 d_cup = math.sqrt(4 * need * pad.safety / (math.pi * pad.vacuum * pad.count))
@@ -231,7 +235,7 @@ def check_fold_loads(states, arm: ArmRating, cup: VacuumCup, *, payload_mass: fl
                     s, m.crease, "cup tilt", m.high, tilt, "N m", m.high <= tilt,
                     _remedy(material, cl, min(allowed, tilt), arm, "pad",
                             f"push instead of pull; a bigger pad (more or larger cups, spread across the crease: "
-                            f"this one resists {tilt:.1f} N m at {lever * 1000:.0f} mm)")))
+                            f"this one resists {tilt:.1f} N m at {lever * 1000:.0f} mm)", two_arms=two_arms_remedy)))
     return LoadReport(arm=arm, cup=cup, payload_mass=float(payload_mass), verdicts=tuple(verdicts), pad=pad)
 
 
@@ -297,4 +301,4 @@ def toolpath_loads(spec, model, creases, grip_face: int, cell, payload_mass: flo
         states[f.state].append(CreaseLoad(fold_moment(spec, f.crease.length, f.crease.name), f.lever, f.pull))
     pad = pad_of_cell(cell)
     return check_fold_loads(states, arm_rating(cell.model.name), pad.cup, payload_mass=payload_mass,
-                            material=spec.material, pad=pad)
+                            material=spec.material, pad=pad, two_arms_remedy=not other_grips)
