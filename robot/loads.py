@@ -215,7 +215,8 @@ def check_fold_loads(states, arm: ArmRating, cup: VacuumCup, *, payload_mass: fl
             force = m.high / lever
             allowed = min(arm.wrist_torque, max(rated - weight, 0.0) * lever)
             verdicts.append(LoadVerdict(s, m.crease, "wrist couple", m.high, arm.wrist_torque, "N m",
-                                        m.high <= arm.wrist_torque, _remedy(material, cl, allowed, arm, "wrist", two_arms=two_arms_remedy)))
+                                        m.high <= arm.wrist_torque,
+                                        _remedy(material, cl, allowed, arm, "wrist", two_arms=two_arms_remedy)))
             d_need = m.high / (rated - weight) if rated > weight else math.inf
             verdicts.append(LoadVerdict(
                 s, m.crease, "fold force + payload weight", force + weight, rated, "N", force + weight <= rated,

@@ -344,7 +344,8 @@ def test_a_urscript_arm_whose_partner_stopped_halts_after_the_timeout(job, tmp_p
         waited = {}
         for arm, s in arms.items():
             log = s.log_text()
-            msg = f"arm {arm} halted at sync waypoint {k} (1 of {len(atp.sync)}): arm {peer[arm]} did not arrive within 1.0 s"
+            msg = (f"arm {arm} halted at sync waypoint {k} (1 of {len(atp.sync)}): arm {peer[arm]} did not arrive "
+                   "within 1.0 s")
             assert f"popup: {msg}" in log and f"textmsg: fabkit: {msg}" in log and "halted (line" in log, log[-1500:]
             np.testing.assert_allclose(s.state()["q"], atp.arm(arm).waypoints[k].q, atol=1e-6)
             out = [c for c in s.admin("record")["commands"] if c["command"] == "set_standard_digital_out"
