@@ -139,14 +139,13 @@ def arms_sheet_records(atp, spec, design_model, compensated, cell, grips: dict, 
     applied here)."""
     from dataclasses import replace
 
-    from fabkit.materials import material_toml
-    from fabkit.sheet import front_face_offset, panel_mass
+    from fabkit.sheet import panel_mass
     from robot.arm_cells import arm_cell
     from robot.arms_toolpath import ArmsToolpath
     from robot.loads import payload_record, toolpath_loads
     from robot.motion import toolpath_cycle_time
     from robot.panel_placement import placed_cell, placement_of
-    from robot.sheet_program import DEFAULT_TOOL_MASS, grip_side_of
+    from robot.sheet_program import DEFAULT_TOOL_MASS, grip_side_of, sheet_record
     from robot.two_arm_planner import lockstep_timing
     from robot.ur_motion import PayloadError
 
@@ -175,9 +174,7 @@ def arms_sheet_records(atp, spec, design_model, compensated, cell, grips: dict, 
     loads = ArmsLoadReport(arms=tuple(reports))
     if shares is not None:
         split[CLAMP] = {"panel_kg": shares[CLAMP].mass, "strips": {str(k): v for k, v in shares[CLAMP].strips.items()}}
-    sheet = {**compensated.summary(), "material_toml": material_toml(spec.material), "tool_mass_kg": mass,
-             "tool_mass_assumed": tool_mass is None, "design_surface": design_surface,
-             "front_face_offset_mm": front_face_offset(spec, design_surface) * 1000, "loads": loads.summary(),
+    sheet = {**sheet_record(spec, compensated, tool_mass, design_surface, loads.summary()),
              "panel_kg": whole.mass, "panel_split": split if shares is not None else None}
     out = ArmsToolpath.build(atp.cell, atp.cell_sha256, atp.source, arms, atp.sync, {**atp.extra, "sheet": sheet})
     try:  # the lockstep program's duration under the declared payloads

@@ -17,8 +17,8 @@ from robot.loads import LoadReport, payload_record, toolpath_loads
 from robot.motion import toolpath_cycle_time
 from robot.ur_motion import PayloadError
 
-__all__ = ["DEFAULT_TOOL_MASS", "compensated_states", "sheet_records", "sheet_of_toolpath", "toolpath_load_check",
-           "grip_side_of"]
+__all__ = ["DEFAULT_TOOL_MASS", "compensated_states", "sheet_records", "sheet_record", "sheet_of_toolpath",
+           "toolpath_load_check", "grip_side_of"]
 
 #: Gripper mass [kg] assumed when none is given (an estimate; the command says so).
 DEFAULT_TOOL_MASS = 1.0
@@ -41,10 +41,7 @@ def sheet_records(tp, spec, design_model, compensated, cell, grip_face: int,
     placement is applied here). `tool_mass` None: `DEFAULT_TOOL_MASS`;
     `design_surface`: which surface of the sheet the FOLD's faces are (top, mid, bottom), the
     planner having added `fabkit.sheet.front_face_offset` to the grip standoff."""
-    from fabkit.materials import material_toml
-    from fabkit.sheet import front_face_offset
     from fabkit.sheet import panel_mass
-
     from robot.panel_placement import placed_cell, placement_of
 
     mass = DEFAULT_TOOL_MASS if tool_mass is None else float(tool_mass)
@@ -54,15 +51,25 @@ def sheet_records(tp, spec, design_model, compensated, cell, grip_face: int,
     payload = payload_record(placed_cell(cell, placement_of(tp.extra)), tp.waypoints, pm.mass, pm.cog, mass)
     loads = toolpath_loads(spec, design_model, compensated.creases, grip_face, cell, mass + pm.mass,
                            side=grip_side_of(tp))
-    sheet = {**compensated.summary(), "material_toml": material_toml(spec.material), "tool_mass_kg": mass,
-             "tool_mass_assumed": tool_mass is None, "design_surface": design_surface,
-             "front_face_offset_mm": front_face_offset(spec, design_surface) * 1000, "loads": loads.summary()}
+    sheet = sheet_record(spec, compensated, tool_mass, design_surface, loads.summary())
     tp = replace(tp, extra={**tp.extra, "sheet": sheet, "payload": payload})
     try:  # the declared payload lowers the joint acceleration bound (robot.ur_motion)
         tp = replace(tp, extra={**tp.extra, "cycle_time_s": toolpath_cycle_time(tp).total})
     except PayloadError:  # over the arm's rating: the check refuses the toolpath and says so
         pass
     return tp, loads
+
+
+def sheet_record(spec, compensated, tool_mass: float | None, design_surface: str, loads: dict) -> dict:
+    """PATH.json's `sheet` record: the compensated states' summary, the material as TOML, the tool
+    mass (`DEFAULT_TOOL_MASS` when None, said so), the design surface and the fold loads' summary."""
+    from fabkit.materials import material_toml
+    from fabkit.sheet import front_face_offset
+
+    return {**compensated.summary(), "material_toml": material_toml(spec.material),
+            "tool_mass_kg": DEFAULT_TOOL_MASS if tool_mass is None else float(tool_mass),
+            "tool_mass_assumed": tool_mass is None, "design_surface": design_surface,
+            "front_face_offset_mm": front_face_offset(spec, design_surface) * 1000, "loads": loads}
 
 
 def sheet_of_toolpath(tp):
