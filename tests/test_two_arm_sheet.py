@@ -243,3 +243,25 @@ def test_a_plain_and_a_permuted_obj_get_the_same_split_and_loads(tmp_path):
     key = lambda v: (v["crease"], v["state"], v["check"])  # noqa: E731
     for a, b in zip(sorted(ref["sheet"]["loads"]["verdicts"], key=key), sorted(got["sheet"]["loads"]["verdicts"], key=key)):
         assert key(a) == key(b) and b["demand"] == pytest.approx(a["demand"], rel=1e-9)
+
+
+def test_a_strip_between_two_holders_is_split_and_an_untagged_panel_is_not(folds):
+    """`holder_shares` with the clamp on an end strip and one arm on the other end: the middle strip
+    is as near to both, so each carries half of it (known answer from the strips' own masses); a
+    panel without strip tags is not split (None: each arm then declares the whole panel)."""
+    from fabkit.frames import face_groups
+    from robot.arms_sheet import holder_shares
+
+    model, spec = folds.model, _spec()
+    groups = face_groups(model.faces_vertices, model.faces_data)
+    end, far = (int(groups.ids[groups.strip == s][0]) for s in (0, 2))
+    shares = holder_shares(model, spec, {"a": far}, fixed_face=end)
+    flat = model.mesh()
+    tris, tri_face = flat.triangulate()
+    strip = np.asarray(model.faces_data["strip"])[tri_face]
+    part = [panel_mass(spec, flat.vertices, tris[strip == s]).mass for s in (0, 1, 2)]
+    assert shares["clamp"].mass == pytest.approx(part[0] + part[1] / 2, rel=1e-12)
+    assert shares["a"].mass == pytest.approx(part[2] + part[1] / 2, rel=1e-12)
+    assert shares["a"].strips == {1: 0.5, 2: 1.0} and shares["clamp"].strips == {0: 1.0, 1: 0.5}
+    untagged = dataclasses.replace(model, faces_data={k: v for k, v in model.faces_data.items() if k != "strip"})
+    assert holder_shares(untagged, spec, {"a": far}, fixed_face=end) is None
