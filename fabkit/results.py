@@ -262,20 +262,27 @@ class Program:
         reg = PROGRESS_REGISTER if progress_register is None else progress_register
         return write_urscript(self.toolpath, program_name=f"fold_{self.cell.name}", progress_register=reg)
 
-    def urscripts(self, script_path, progress_register: int | None = None) -> dict:
+    def urscripts(self, script_path, progress_register: int | None = None, handshake_timeout: float | None = None) \
+            -> dict:
         """{path: URScript program text} that `fabkit toolpath --script script_path` writes: the
         one program at `script_path` for one arm; for several arms one per arm
-        (`robot.arms_urscript`), at `script_path` with `_<arm>` before its suffix."""
+        (`robot.arms_urscript`, `handshake_timeout` s or its default), at `script_path` with
+        `_<arm>` before its suffix."""
         from fabkit.toolpath_stage import check_progress_register
         from robot.arms_urscript import arm_script_path, write_arm_urscripts
         from robot.urscript import PROGRESS_REGISTER
 
         if not hasattr(self.toolpath, "arms"):
+            if handshake_timeout is not None:
+                from fabkit.errors import InputError
+
+                raise InputError("a one-arm program has no handshake between arms", source="--handshake-timeout")
             return {Path(script_path): self.urscript(progress_register)}
         check_progress_register(progress_register)
         reg = PROGRESS_REGISTER if progress_register is None else progress_register
         return {arm_script_path(script_path, arm): text
-                for arm, text in write_arm_urscripts(self.toolpath, progress_register=reg).items()}
+                for arm, text in write_arm_urscripts(self.toolpath, progress_register=reg,
+                                                      timeout_s=handshake_timeout).items()}
 
     def report(self, output=None, script=None) -> dict:
         """The report `fabkit toolpath --report` writes, naming `output` (the PATH.json written)

@@ -5,7 +5,8 @@ holding a planned `robot.toolpath.Toolpath`: it checks the options (`PlanSetting
 messages name the CLI options, as every verdict of the API does), reads the cell and the FOLD file,
 follows the springback-compensated states for a sheet, chooses the grip face through the MuJoCo
 check (`sim.grip_search`), and for a sheet adds the `sheet` and `payload` records and the fold-load
-verdicts. It writes nothing: `fk.plan` saves path.json into its working folder, the CLI into `-o`.
+verdicts (`robot.sheet_program`; for a cell with two arms a payload and the fold loads per arm,
+`robot.arms_sheet`). It writes nothing: `fk.plan` saves path.json into its working folder, the CLI into `-o`.
 
 `PlanSettings` is the one record of the planning options; `fk.plan(**fields)` and the CLI's options
 (`--grip-face` is the field `grip_face`) both become one, so an option added here reaches both.
@@ -206,7 +207,7 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
                            variants=variants,
                            sheet=compensated is not None, fold_file=fold_file)
     except PlanningError as exc:
-        if compensated is not None:   # robot.phased_planner: rigid programs only
+        if compensated is not None and len(cell.arms) == 1:   # robot.phased_planner: rigid programs only
             notes.append("no regrip in phases was tried: springback between a release and the regrip is not "
                          "modelled for a sheet")
         return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=(str(exc),),
@@ -217,8 +218,14 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
     if compensated is not None:  # angles, payload and fold loads into PATH.json
         if settings.tool_mass is None:
             notes.append("payload with an assumed 1.0 kg gripper (give --tool-mass)")
-        tp, loads = sheet_records(tp, spec, design_model, compensated, cell, res.grip_face, settings.tool_mass,
-                                  design_surface=settings.design_surface)
+        if hasattr(tp, "arms"):  # two arms: a payload and fold loads per arm (robot.arms_sheet)
+            from robot.arms_sheet import arms_sheet_records
+
+            tp, loads = arms_sheet_records(tp, spec, design_model, compensated, cell, res.grips, settings.tool_mass,
+                                           design_surface=settings.design_surface)
+        else:
+            tp, loads = sheet_records(tp, spec, design_model, compensated, cell, res.grip_face, settings.tool_mass,
+                                      design_surface=settings.design_surface)
         common["details"]["loads"] = loads.summary()
         if settings.check_loads and not loads.ok:
             return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=tuple(loads.failure_lines()),

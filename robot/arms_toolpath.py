@@ -3,7 +3,7 @@
 One-arm programs stay `fabkit.toolpath/2` (`robot.toolpath`). A program for several arms is
 
     {"format": "fabkit.toolpath/3", "cell", "cell_sha256", "source",
-     "arms": [{"name", "robot", "tcp", "waypoints": [...], "grip", "checks", "cycle_time_s"}, ...],
+     "arms": [{"name", "robot", "tcp", "waypoints": [...], "grip", "checks", "cycle_time_s"[, "payload"]}, ...],
      "sync": [waypoint indices], "holds", "placement", "units", "cycle_time_s", "lockstep", "sha256"}
 
 Every arm has the same number of waypoints, and waypoint i of every arm has the same `op` and
@@ -37,7 +37,7 @@ __all__ = ["FORMAT", "ArmsToolpath", "load_toolpath", "toolpath_from_json"]
 FORMAT = "fabkit.toolpath/3"
 ARM_KEYS = ("name", "robot", "tcp", "waypoints")
 #: Per-arm extra keys (the rest of the document's extra keys are shared by every arm).
-ARM_EXTRA = ("grip", "checks", "cycle_time_s")
+ARM_EXTRA = ("grip", "checks", "cycle_time_s", "payload")
 REQUIRED = ("cell", "cell_sha256", "source", "arms", "sync", "sha256")
 
 

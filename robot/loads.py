@@ -17,6 +17,10 @@ relative to the rigid pad, and M must stay within the pad's moment of resistance
 forces times their lever arms, the lip farthest from the crease lifting first).
 The pad is the cell's `[tool.pad]`, else one cup of the `suction_cup` shape's diameter.
 
+In a two-arm program each arm carries the creases between the clamp and its grip that no other
+arm's grip lies before (`toolpath_loads(other_grips=)`), with its own share of the panel as payload
+(`robot.arms_sheet`).
+
 A failed check names the crease, the state and the remedy (groove the crease to a ligament that
 fits, a bigger arm, push instead of pull, a bigger pad, two arms). Not modelled: the arm's own
 link weights and the dynamic loads of acceleration (the ratings include them at the catalogue's
@@ -166,7 +170,8 @@ def _floor(x: float, step: float) -> float:
     return math.floor(x / step + 1e-9) * step
 
 
-def _remedy(material, cl: CreaseLoad, allowed: float, arm: ArmRating, bigger_by: str, extra: str = "") -> str:
+def _remedy(material, cl: CreaseLoad, allowed: float, arm: ArmRating, bigger_by: str, extra: str = "",
+            two_arms: bool = True) -> str:
     """Remedy text: the preparation that brings the crease's moment to `allowed` [N m] (the smallest
     moment every arm check of this crease accepts), a bigger arm (`bigger_by` wrist or payload),
     `extra`, two arms."""
@@ -185,16 +190,18 @@ def _remedy(material, cl: CreaseLoad, allowed: float, arm: ArmRating, bigger_by:
         parts.append(f"a bigger arm ({bigger[0].model})")
     if extra:
         parts.append(extra)
-    parts.append("two arms sharing the fold")
+    if two_arms:
+        parts.append("two arms sharing the fold")
     return "; ".join(parts)
 
 
 def check_fold_loads(states, arm: ArmRating, cup: VacuumCup, *, payload_mass: float,
-                     material=None, pad: CupPad | None = None) -> LoadReport:
+                     material=None, pad: CupPad | None = None, two_arms_remedy: bool = True) -> LoadReport:
     """Check every `CreaseLoad` of every state (`states`: a sequence of sequences, index = state).
 
     payload_mass [kg]: tool + panel. material: names the remedy (ligament or perforation). pad: the
-    cups that hold (default: `cup` alone)."""
+    cups that hold (default: `cup` alone). two_arms_remedy: name "two arms sharing the fold" among
+    the remedies (not for an arm of a two-arm program, whose arms fold a crease each)."""
     pad = single_cup_pad(cup) if pad is None else pad
     verdicts: list[LoadVerdict] = []
     weight = payload_mass * GRAVITY
@@ -208,12 +215,14 @@ def check_fold_loads(states, arm: ArmRating, cup: VacuumCup, *, payload_mass: fl
             force = m.high / lever
             allowed = min(arm.wrist_torque, max(rated - weight, 0.0) * lever)
             verdicts.append(LoadVerdict(s, m.crease, "wrist couple", m.high, arm.wrist_torque, "N m",
-                                        m.high <= arm.wrist_torque, _remedy(material, cl, allowed, arm, "wrist")))
+                                        m.high <= arm.wrist_torque,
+                                        _remedy(material, cl, allowed, arm, "wrist", two_arms=two_arms_remedy)))
             d_need = m.high / (rated - weight) if rated > weight else math.inf
             verdicts.append(LoadVerdict(
                 s, m.crease, "fold force + payload weight", force + weight, rated, "N", force + weight <= rated,
                 _remedy(material, cl, allowed, arm, "payload",
-                        f"grip at least {math.ceil(d_need * 1000)} mm from the crease" if math.isfinite(d_need) else "")))
+                        f"grip at least {math.ceil(d_need * 1000)} mm from the crease" if math.isfinite(d_need) else "",
+                        two_arms=two_arms_remedy)))
             if cl.pull:
                 need = force + weight
                 d_cup = math.sqrt(4 * need * pad.safety / (math.pi * pad.vacuum * pad.count))
@@ -227,7 +236,7 @@ def check_fold_loads(states, arm: ArmRating, cup: VacuumCup, *, payload_mass: fl
                     s, m.crease, "cup tilt", m.high, tilt, "N m", m.high <= tilt,
                     _remedy(material, cl, min(allowed, tilt), arm, "pad",
                             f"push instead of pull; a bigger pad (more or larger cups, spread across the crease: "
-                            f"this one resists {tilt:.1f} N m at {lever * 1000:.0f} mm)")))
+                            f"this one resists {tilt:.1f} N m at {lever * 1000:.0f} mm)", two_arms=two_arms_remedy)))
     return LoadReport(arm=arm, cup=cup, payload_mass=float(payload_mass), verdicts=tuple(verdicts), pad=pad)
 
 
@@ -271,17 +280,26 @@ def payload_record(cell, waypoints, panel_mass: float, panel_cog, tool_mass: flo
 
 
 def toolpath_loads(spec, model, creases, grip_face: int, cell, payload_mass: float,
-                   side: str = "front") -> LoadReport:
+                   side: str = "front", other_grips=()) -> LoadReport:
     """The load check of a fold program: every crease the arm folds (`fabkit.sheet.creases.arm_folds`,
-    from the design FOLD `model`) in every state, on the cell's arm and cup gripping `side`."""
+    from the design FOLD `model`) in every state, on the cell's arm and cup gripping `side`.
+    `other_grips`: faces other arms hold (a two-arm program); a crease between the clamp and such a
+    face that lies nearer the clamp than this arm's grip (its creases a strict part of this arm's)
+    is folded by that arm, not this one."""
     from fabkit.sheet.creases import arm_folds
     from fabkit.sheet.loads import fold_moment
 
     fixed = model.file_data.get("fabkit:fixed_face")
-    folds = arm_folds(model, creases, grip_face, None if fixed is None else int(fixed), side=side)
+    fixed = None if fixed is None else int(fixed)
+    folds = arm_folds(model, creases, grip_face, fixed, side=side)
+    mine = {f.crease.name for f in folds}
+    for g in other_grips:
+        theirs = {f.crease.name for f in arm_folds(model, creases, int(g), fixed, side=side)}
+        if theirs < mine:
+            folds = [f for f in folds if f.crease.name not in theirs]
     states: list[list[CreaseLoad]] = [[] for _ in range(model.n_frames)]
     for f in folds:
         states[f.state].append(CreaseLoad(fold_moment(spec, f.crease.length, f.crease.name), f.lever, f.pull))
     pad = pad_of_cell(cell)
     return check_fold_loads(states, arm_rating(cell.model.name), pad.cup, payload_mass=payload_mass,
-                            material=spec.material, pad=pad)
+                            material=spec.material, pad=pad, two_arms_remedy=not other_grips)

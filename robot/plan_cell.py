@@ -19,7 +19,8 @@ def plan_in_cell(cell, fold_model, frames, *, grip_face: int | None = None, opti
     `grip_face`: the face to grip (a two-arm cell: one of the two); `accept`: the checker
     (`sim.grip_search.checked_acceptor`), asked for each candidate that plans; `variants`: further
     `PlanOptions` a one-arm cell tries per face; `sheet`: the program follows a sheet's compensated
-    states (one-arm cells only). Returns a `robot.planner.PlanResult` or a
+    states (a one-arm cell then tries no regrip; a two-arm cell plans as for a rigid panel, the
+    sheet records are added by `robot.arms_sheet`). Returns a `robot.planner.PlanResult` or a
     `robot.two_arm_planner.ArmsPlanResult`; raises `robot.planner.PlanningError`."""
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
@@ -39,9 +40,6 @@ def plan_in_cell(cell, fold_model, frames, *, grip_face: int | None = None, opti
 
         return with_regrip(placed, frames, fold_model, options=options, source=source, clamped_faces=clamped,
                            placement=placement, accept=accept, variants=variants)
-    if sheet:
-        raise InputError("a sheet material (springback compensation, fold loads) is planned for one-arm cells only",
-                         source=cell.source or None)
     from robot.two_arm_planner import hold_pairs, plan_two_arms
 
     name = None if fold_file is None else str(fold_file)

@@ -17,8 +17,8 @@ from robot.loads import LoadReport, payload_record, toolpath_loads
 from robot.motion import toolpath_cycle_time
 from robot.ur_motion import PayloadError
 
-__all__ = ["DEFAULT_TOOL_MASS", "compensated_states", "sheet_records", "sheet_of_toolpath", "toolpath_load_check",
-           "grip_side_of"]
+__all__ = ["DEFAULT_TOOL_MASS", "compensated_states", "sheet_records", "sheet_record", "sheet_of_toolpath",
+           "toolpath_load_check", "grip_side_of"]
 
 #: Gripper mass [kg] assumed when none is given (an estimate; the command says so).
 DEFAULT_TOOL_MASS = 1.0
@@ -37,28 +37,39 @@ def compensated_states(model, spec, source: str = "SEQ.fold"):
 def sheet_records(tp, spec, design_model, compensated, cell, grip_face: int,
                   tool_mass: float | None = None, design_surface: str = "top"):
     """The toolpath with its `sheet` and `payload` records (module docstring) and the
-    `robot.loads.LoadReport` of its fold loads. `tool_mass` None: `DEFAULT_TOOL_MASS`;
+    `robot.loads.LoadReport` of its fold loads; `cell` the cell file's cell (the toolpath's
+    placement is applied here). `tool_mass` None: `DEFAULT_TOOL_MASS`;
     `design_surface`: which surface of the sheet the FOLD's faces are (top, mid, bottom), the
     planner having added `fabkit.sheet.front_face_offset` to the grip standoff."""
-    from fabkit.materials import material_toml
-    from fabkit.sheet import front_face_offset
     from fabkit.sheet import panel_mass
+    from robot.panel_placement import placed_cell, placement_of
 
     mass = DEFAULT_TOOL_MASS if tool_mass is None else float(tool_mass)
     flat = design_model.mesh()
     pm = panel_mass(spec, flat.vertices, flat.triangulate()[0])
-    payload = payload_record(cell, tp.waypoints, pm.mass, pm.cog, mass)
+    # the panel's CoG where the program placed the panel (its placement record), not the cell's fixture
+    payload = payload_record(placed_cell(cell, placement_of(tp.extra)), tp.waypoints, pm.mass, pm.cog, mass)
     loads = toolpath_loads(spec, design_model, compensated.creases, grip_face, cell, mass + pm.mass,
                            side=grip_side_of(tp))
-    sheet = {**compensated.summary(), "material_toml": material_toml(spec.material), "tool_mass_kg": mass,
-             "tool_mass_assumed": tool_mass is None, "design_surface": design_surface,
-             "front_face_offset_mm": front_face_offset(spec, design_surface) * 1000, "loads": loads.summary()}
+    sheet = sheet_record(spec, compensated, tool_mass, design_surface, loads.summary())
     tp = replace(tp, extra={**tp.extra, "sheet": sheet, "payload": payload})
     try:  # the declared payload lowers the joint acceleration bound (robot.ur_motion)
         tp = replace(tp, extra={**tp.extra, "cycle_time_s": toolpath_cycle_time(tp).total})
     except PayloadError:  # over the arm's rating: the check refuses the toolpath and says so
         pass
     return tp, loads
+
+
+def sheet_record(spec, compensated, tool_mass: float | None, design_surface: str, loads: dict) -> dict:
+    """PATH.json's `sheet` record: the compensated states' summary, the material as TOML, the tool
+    mass (`DEFAULT_TOOL_MASS` when None, said so), the design surface and the fold loads' summary."""
+    from fabkit.materials import material_toml
+    from fabkit.sheet import front_face_offset
+
+    return {**compensated.summary(), "material_toml": material_toml(spec.material),
+            "tool_mass_kg": DEFAULT_TOOL_MASS if tool_mass is None else float(tool_mass),
+            "tool_mass_assumed": tool_mass is None, "design_surface": design_surface,
+            "front_face_offset_mm": front_face_offset(spec, design_surface) * 1000, "loads": loads}
 
 
 def sheet_of_toolpath(tp):
@@ -90,7 +101,9 @@ def sheet_of_toolpath(tp):
 def toolpath_load_check(tp, spec, design_model, cell, grip_face: int) -> LoadReport:
     """The fold loads of a toolpath's program (`robot.loads.toolpath_loads`) on `cell`, with the
     payload the toolpath declares while it holds the panel (`payload.held_mass_kg`; without a payload
-    record: `DEFAULT_TOOL_MASS` + the panel's mass)."""
+    record: `DEFAULT_TOOL_MASS` + the panel's mass). For one arm of a two-arm program (its view
+    `ArmsToolpath.arm`), the creases the other arms' grips fold are not its own
+    (`robot.arms_sheet.other_grips`)."""
     from fabkit.sheet import panel_mass
     from fabkit.sheet.creases import panel_creases
 
@@ -100,8 +113,10 @@ def toolpath_load_check(tp, spec, design_model, cell, grip_face: int) -> LoadRep
     else:
         flat = design_model.mesh()
         held = DEFAULT_TOOL_MASS + panel_mass(spec, flat.vertices, flat.triangulate()[0]).mass
+    from robot.arms_sheet import other_grips
+
     return toolpath_loads(spec, design_model, panel_creases(design_model), grip_face, cell, held,
-                          side=grip_side_of(tp))
+                          side=grip_side_of(tp), other_grips=other_grips(tp, grip_face))
 
 
 def grip_side_of(tp) -> str:

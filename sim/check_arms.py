@@ -3,7 +3,9 @@
 One arm at a time, each in the cell as it sees it (`robot.arm_cells.arm_cell`): reach, limits,
 singularities, speeds, collisions and clearance of that arm and its tool against the obstacles and
 the panel posed at the fold state of every configuration (`sim.check.run_toolpath_check`, the
-one-arm check). Then, for the program as a whole:
+one-arm check; for a sheet program also that arm's fold loads, `sim.check_loads`: the creases it
+folds, its payload share, its cup and pad, with the panel posed in the compensated states). Then,
+for the program as a whole:
 
 - **arm against arm**: both arms in one MuJoCo model (`sim.model.build_cell_model(all_arms=True)`,
   `sim.arm_contacts`), at common times. The sender runs the arms in lockstep: every segment between
@@ -19,7 +21,9 @@ one-arm check). Then, for the program as a whole:
   pull the panel toward two different fold states (kind `holds`, subject "lockstep");
 - the panel against the cell and itself (`sim.check_panel_collisions`) and the clamp footprint.
 
-Problems found in one arm's check carry the arm's name in `subject` and `detail`.
+Problems found in one arm's check carry the arm's name in `subject` and `detail`; CHECK.json
+`loads` holds every arm's load checks, each crease named with its arm, and `arms.<name>.loads` each
+arm's own record.
 """
 from __future__ import annotations
 
@@ -198,6 +202,7 @@ def run_arms_check(atp, cell, *, fold=None, use_panel: bool = True, thickness=No
         clear.append((worst, pair))
     min_c, min_pair = min(clear, key=lambda c: c[0]) if clear else (None, None)
     arms = {n: {"robot": atp.arm(n).robot, "toolpath_sha256": atp.arm(n).sha256, "ok": r.report.ok,
+                **({"loads": r.report.loads} if r.report.loads is not None else {}),
                 "min_clearance_m": r.report.min_clearance_m,
                 "min_clearance_pair": list(r.report.min_clearance_pair) if r.report.min_clearance_pair else None,
                 "cycle_time_s": r.report.cycle_time_s, "configs_checked": r.report.configs_checked,
@@ -209,13 +214,34 @@ def run_arms_check(atp, cell, *, fold=None, use_panel: bool = True, thickness=No
                      robot=atp.robot, cell=cell.name, cell_sha256=getattr(cell, "sha256", ""),
                      notes=tuple(notes) + placed.notes,
                      fold=None if fold_path is None else {"path": str(fold_path), "sha256": fold_sha},
-                     holds=holds_rec, panel_collisions=panel_rec, arms=arms,
+                     holds=holds_rec, panel_collisions=panel_rec, arms=arms, loads=_merged_loads(runs),
                      lockstep={**lock_record, "arm_arm_min_distance_m": worst,
                                "arm_arm_pair": list(pair) if pair else None, "segments": timing["segments"],
                                "segment_times_s": timing["arms"]})
     r0 = runs[atp.arm_names[0]]
     return ToolpathCheck(report=report, dense=aligned_dense(aligned), program=r0.program, panel=r0.panel,
                          fold_path=fold_path)
+
+
+def _merged_loads(runs: dict) -> dict | None:
+    """CHECK.json `loads` of a sheet program for several arms: one arm's record shape (`sim.check_loads`)
+    with every arm's checks per state, each crease named "arm <name>: <crease>", and `arms` {name:
+    that arm's record}; None for a rigid program."""
+    recs = {n: r.report.loads for n, r in runs.items() if r.report.loads is not None}
+    if not recs:
+        return None
+    states: dict = {}
+    for n, rec in recs.items():
+        for row in rec["states"]:
+            st = states.setdefault(row["state"], {"state": row["state"], "waypoints": row["waypoints"], "ok": True,
+                                                  "checks": []})
+            st["ok"] = st["ok"] and row["ok"]
+            st["checks"] += [{**c, "crease": f"arm {n}: {c['crease']}", "arm": n} for c in row["checks"]]
+    first = next(iter(recs.values()))
+    return {"ok": all(r["ok"] for r in recs.values()), "arm": "+".join(r["arm"] for r in recs.values()),
+            "sheet": first["sheet"], "recorded": all(r["recorded"] for r in recs.values()),
+            "payload_kg": {n: r["payload_kg"] for n, r in recs.items()},
+            "states": [states[k] for k in sorted(states)], "arms": recs}
 
 
 def _placed_cell(tp, cell):

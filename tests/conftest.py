@@ -28,7 +28,7 @@ def rng():
 #: running a long file alone at the end.
 LONGEST_FIRST = ("test_phased_program.py", "test_two_arm_send.py", "test_structure_pipeline.py", "test_readme.py",
                  "test_demo_e2e.py", "test_api_pipeline.py",
-                 "test_sheet_send.py", "test_production.py", "test_panels.py", "test_send_stop.py",
+                 "test_sheet_send.py", "test_two_arm_sheet.py", "test_production.py", "test_panels.py", "test_send_stop.py",
                  "test_production_dask.py", "test_production_repeats.py", "test_ursim_interfaces.py",
                  "test_send.py")
 #: Run last, when the other worker is on short files: their assertions measure the stand-in's 500 Hz

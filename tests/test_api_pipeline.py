@@ -292,7 +292,8 @@ def test_every_toolpath_option_is_a_plan_setting():
     from fabkit.toolpath_stage import PlanSettings
 
     options = vars(build_parser("toolpath").parse_args(["toolpath", "s.fold", "--cell", "c.toml", "-o", "p.json"]))
-    files = {"command", "fold", "cell", "output", "script", "report", "quiet", "units", "progress_register"}
+    files = {"command", "fold", "cell", "output", "script", "report", "quiet", "units", "progress_register",
+             "handshake_timeout"}
     assert {k for k in options if not k.startswith("_")} - files == set(PlanSettings.field_names())
     with pytest.raises(fabkit.InputError, match=r"--approach.*not in \(0, 0.5\]"):
         PlanSettings(approach=-1.0).check()

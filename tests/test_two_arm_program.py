@@ -196,13 +196,14 @@ def test_cli_plans_and_checks_a_two_arm_program(middle, tmp_path):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and "check: ok" in r.stdout, r.stdout + r.stderr
     r = subprocess.run(run + ["toolpath", str(fold), "--cell", str(DUAL), "-o", str(tmp_path / "q.json"),
-                              "--grip-face", "28", "--script", str(tmp_path / "q.script")],
+                              "--grip-face", "28", "--script", str(tmp_path / "q.script"), "--handshake-timeout", "4.5"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr  # one program per arm (robot.arms_urscript), nothing at q.script itself
     from robot.arms_urscript import write_arm_urscripts
 
     written = {arm: (tmp_path / f"q_{arm}.script").read_text() for arm in ("a", "b")}
-    assert written == write_arm_urscripts(load_toolpath(tmp_path / "q.json")) and not (tmp_path / "q.script").exists()
+    assert written == write_arm_urscripts(load_toolpath(tmp_path / "q.json"), timeout_s=4.5)
+    assert not (tmp_path / "q.script").exists() and "if fabkit_waited > 4.5:" in written["a"]
     assert "q_a.script: URScript program of arm a" in r.stdout
 
 

@@ -288,3 +288,103 @@ def test_one_urscript_per_arm_meets_at_every_sync_waypoint(job, tmp_path):
     finally:
         for s in arms.values():
             s.stop()
+
+
+def test_a_urscript_arm_whose_partner_stopped_halts_after_the_timeout(job, tmp_path):
+    """The handshake's time-out on two wired stand-ins, 1 s: arm b's program is stopped (the Stop
+    button) on its way to the grip. Arm a waits 1 s at the grip (sync waypoint 2), puts its output
+    back and halts, naming the sync waypoint and arm b. Arm b's program is then started again: it
+    arrives at the grip, does not pass it alone, waits its own 1 s and halts naming the same sync
+    waypoint and arm a. Both stand at the grip."""
+    import random
+    import socket
+
+    from robot.arms_urscript import HANDSHAKE_INPUT, HANDSHAKE_OUTPUT, write_arm_urscripts
+    from robot.urscript import PROGRESS_REGISTER
+
+    atp = job[0].toolpath
+    k = atp.sync[0]
+    scripts = write_arm_urscripts(atp, timeout_s=1.0, start_window_s=0.0)
+    hosts = dict(zip(("a", "b"), free_loopback_hosts(random.Random())))
+    peer = {"a": "b", "b": "a"}
+    arms, seen, events = {}, [], {}
+
+    def start(arm):
+        with socket.create_connection((hosts[arm], 30002), timeout=5.0) as s:
+            s.sendall(scripts[arm].encode("ascii"))
+    try:
+        for arm in ("a", "b"):
+            arms[arm] = StandIn("--cell", str(DUAL), "--arm", arm, "-v", "--wire-output",
+                                f"{HANDSHAKE_OUTPUT}:{hosts[peer[arm]]}:{HANDSHAKE_INPUT}",
+                                log=tmp_path / f"ursim_{arm}.log", host=hosts[arm])
+        start("a")
+        start("b")
+        deadline = time.monotonic() + 40.0
+        while time.monotonic() < deadline:
+            st = {arm: s.state() for arm, s in arms.items()}
+            now = time.monotonic()
+            seen.append({arm: (now, st[arm]["out_int"][PROGRESS_REGISTER], st[arm]["runtime_state"],
+                               bool(st[arm]["digital_out"] & (1 << HANDSHAKE_OUTPUT))) for arm in st})
+            at = seen[-1]
+            if "stop_b" not in events and at["b"][1] >= 1:  # b on its way to the approach
+                arms["b"].admin("program_stop")
+                events["stop_b"] = now
+            if "a_up" not in events and at["a"][3]:
+                events["a_up"] = now
+            if "a_up" in events and "a_halted" not in events and at["a"][2] == 1:
+                events["a_halted"] = now
+                start("b")  # the operator starts arm b's program again
+                events["restart_b"] = time.monotonic()
+            if "restart_b" in events and now > events["restart_b"] + 0.5 and all(v[2] == 1 for v in at.values()):
+                break
+            time.sleep(0.02)
+        else:
+            pytest.fail(f"the programs did not stop: {seen[-1]}, {events}")
+        assert max(at["b"][1] for at in seen) == k and max(at["a"][1] for at in seen) == k  # nobody passed
+        waited = {}
+        for arm, s in arms.items():
+            log = s.log_text()
+            msg = (f"arm {arm} halted at sync waypoint {k} (1 of {len(atp.sync)}): arm {peer[arm]} did not arrive "
+                   "within 1.0 s")
+            assert f"popup: {msg}" in log and f"textmsg: fabkit: {msg}" in log and "halted (line" in log, log[-1500:]
+            np.testing.assert_allclose(s.state()["q"], atp.arm(arm).waypoints[k].q, atol=1e-6)
+            out = [c for c in s.admin("record")["commands"] if c["command"] == "set_standard_digital_out"
+                   and c["output"] == HANDSHAKE_OUTPUT]
+            # a: reset, at sync 1, put back; b: reset (stopped), reset again, at sync 1, put back
+            assert [c["value"] for c in out] == ([False, True, False] if arm == "a" else [False, False, True, False])
+            waited[arm] = out[-1]["t"] - out[-2]["t"]  # controller time from arriving to the time-out
+            # never shorter; longer by the ticks the stand-in's program thread missed on a loaded machine
+            assert 1.0 <= waited[arm] <= 1.0 + 0.25, (arm, waited[arm])
+        up = {arm: [at[arm][0] for at in seen if at[arm][3]] for arm in arms}
+        assert up["b"][0] > up["a"][-1]  # b arrived after a had timed out and put its output back
+        print(f"arm b stopped; arm a waited {waited['a']:.3f} s of controller time at sync waypoint {k} "
+              f"({up['a'][-1] - up['a'][0]:.2f} s between the polls that saw its output up) and halted; "
+              f"arm b, started again, waited {waited['b']:.3f} s there and halted")
+    finally:
+        for s in arms.values():
+            s.stop()
+
+
+def test_the_default_handshake_timeout_is_the_longest_segment_plus_the_margin(job):
+    """The default time-out (`robot.arms_urscript.default_timeout`) is the longest segment between
+    sync waypoints of either arm in the motion model plus 2 s, rounded up to 0.1 s, so an arm that
+    runs the program at full speed never trips it; every sync wait carries it, the start line and
+    the first sync waypoint 10 s more."""
+    from robot.arms_urscript import START_WINDOW_S, TIMEOUT_MARGIN_S, default_timeout, write_arm_urscripts
+    from robot.motion import toolpath_cycle_time
+    from sim.ursim.urscript import parse_program
+
+    atp = job[0].toolpath
+    bounds = [0, *atp.sync, len(atp) - 1]
+    longest = 0.0
+    for name, tp in atp.arms:  # the segments from the cycle time's own per-move times and the dwells
+        seg = toolpath_cycle_time(tp).segments
+        grip = tp.extra["grip"]
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            dwell = {"grip": grip["grip_dwell_s"], "release": grip["release_dwell_s"]}.get(tp.waypoints[b].op, 0.0)
+            longest = max(longest, float(seg[a:b].sum()) + dwell)
+    timeout = default_timeout(atp)
+    assert longest + TIMEOUT_MARGIN_S <= timeout < longest + TIMEOUT_MARGIN_S + 0.1 and 5.0 < longest < 60.0
+    for arm, text in write_arm_urscripts(atp).items():
+        waits = [s.kwargs["timeout"] for s in parse_program(text)[1] if s.name == "wait_standard_digital_in"]
+        assert waits == pytest.approx([timeout + START_WINDOW_S] * 2 + [timeout] * (len(atp.sync) - 1), abs=1e-12)

@@ -68,6 +68,9 @@ def add_arguments(parser) -> None:
                         help="largest joint change between fold waypoints [deg] (default 5)")
     parser.add_argument("--progress-register", type=int, default=None, metavar="N",
                         help="output integer register for progress in the program (default 3)")
+    parser.add_argument("--handshake-timeout", type=float, default=None, metavar="S",
+                        help="program for several arms: longest wait at a sync waypoint for the other arm before "
+                             "the program halts [s] (default: the longest segment between sync waypoints + 2 s)")
     from fabkit.commands._sheet import add_sheet_arguments  # sheet hook: --material, --thickness, ...
 
     add_sheet_arguments(parser, tool_mass=True)
@@ -99,6 +102,8 @@ def run(args) -> int:
     settings = PlanSettings(**{name: getattr(args, name) for name in PlanSettings.field_names() if hasattr(args, name)})
     settings.check()
     check_progress_register(args.progress_register)
+    if args.handshake_timeout is not None and not (math.isfinite(args.handshake_timeout) and args.handshake_timeout > 0):
+        raise InputError(f"{args.handshake_timeout:g} s is not a positive time", source="--handshake-timeout")
     if args.output and args.script and Path(args.output).resolve() == Path(args.script).resolve():
         raise InputError("the program and the toolpath would overwrite each other", source="--script")
     with progress(args, "planning", total=None):
@@ -115,7 +120,7 @@ def run(args) -> int:
         write_report(args, program.report())
         return 1
     tp, cell, res = program.toolpath, program.cell, program.plan
-    scripts = program.urscripts(args.script, args.progress_register) if args.script else {}
+    scripts = program.urscripts(args.script, args.progress_register, args.handshake_timeout) if args.script else {}
     clash = next((p for p in scripts if args.output and Path(args.output).resolve() == p.resolve()), None)
     if clash is not None:
         raise InputError(f"the program {clash} and the toolpath would overwrite each other", source="--script")

@@ -39,7 +39,7 @@ __all__ = ["Stock", "stock", "ProductionOptions", "PanelStatus", "ProductionRun"
 
 STAGES = ("relax", "unfold", "refold", "program", "check")
 #: Code salt of the later stages' hash: bump it when their outputs change meaning.
-PROGRAM_SALT = "fabkit.production.program/4"
+PROGRAM_SALT = "fabkit.production.program/5"
 
 
 @dataclass(frozen=True)

@@ -83,10 +83,15 @@ def sheet_section(path_json: dict, check_json: dict) -> str:
         table = _angles_table(sheet)
         if table:
             parts.append("<h3>Fold angles per state: design and programmed (springback-compensated)</h3>" + table)
-        pay = (path_json or {}).get("payload")
-        if isinstance(pay, dict):
-            parts.append(f"<p>payload declared: tool {_num(pay.get('tool_mass_kg'), '.3f')} kg, tool + panel "
-                         f"{_num(pay.get('held_mass_kg'), '.3f')} kg while held (CoG in the flange frame)</p>")
+        pays = [("", (path_json or {}).get("payload"))] + [  # one arm, or each arm of a two-arm program
+            (f"arm {a.get('name')}: ", a.get("payload")) for a in (path_json or {}).get("arms") or []
+            if isinstance(a, dict)]
+        for who, pay in pays:
+            if isinstance(pay, dict):
+                held = "its share of the panel" if who else "panel"
+                parts.append(f"<p>{_e(who)}payload declared: tool {_num(pay.get('tool_mass_kg'), '.3f')} kg, tool + "
+                             f"{held} {_num(pay.get('held_mass_kg'), '.3f')} kg while held (CoG in the flange "
+                             "frame)</p>")
     if isinstance(loads, dict):
         table = _loads_table(loads)
         verdict = "pass" if loads.get("ok") else "fail"

@@ -6,8 +6,8 @@ Statements (one per line): `def NAME():` / `end`, comments, `set_tcp(p[...])`,
 `write_output_integer_register(n, v)`, `sleep(t)`, `textmsg(...)`, `sync()`,
 `signal_async_progress(i)` (ur_rtde paths), `set_payload(m[, cog])` (also python-urx's tuple
 form `set_payload(m, (x, y, z))`), `set_target_payload(m, cog[, inertia][, transition_time])`,
-and one loop: `while [not ]get_standard_digital_in(n):` / `sync()` / `end` (wait, at rest, until
-standard digital input n is True [or False]: `robot.arms_urscript`'s handshake).
+and the handshake's wait loops, with or without a time-out (`sim.ursim.script_waits`: wait, at
+rest, until standard digital input n is True [or False]; `robot.arms_urscript`).
 A `sec NAME(): ... end` program (no moves) runs beside the running program without stopping it.
 Anything else is rejected with the line number, and the
 program does not run (as a controller refuses a program that does not compile).
@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim.ursim.motion import PlanError, Waypoint, plan_moves
+from sim.ursim.script_waits import Halted, fold_wait_loops, run_wait
 
 MOVES = ("movej", "movel", "movep")
 #: Statements that take no time: run during a blended motion without stopping it.
@@ -64,7 +65,6 @@ def _parse_call(text: str, line: int) -> Statement:
     return Statement(line, name, args, kwargs, is_pose)
 
 
-_WAIT_INPUT = re.compile(r"^while\s+(not\s+)?get_standard_digital_in\(\s*([0-7])\s*\)\s*:$")
 _ARITY = {"wait_standard_digital_in": 2, "set_tcp": 1, "set_tool_digital_out": 2, "set_standard_digital_out": 2,
           "set_configurable_digital_out": 2, "write_output_integer_register": 2, "sleep": 1,
           "signal_async_progress": 1, "sync": 0}
@@ -73,7 +73,11 @@ _ARITY = {"wait_standard_digital_in": 2, "set_tcp": 1, "set_tool_digital_out": 2
 def parse_statements(lines: list[tuple[int, str]]) -> list[Statement]:
     """Parse body lines (line number, text) into statements; raises ScriptError."""
     out = []
-    for no, raw in lines:
+    for item in lines:
+        if isinstance(item, Statement):  # a wait loop, compiled by sim.ursim.script_waits
+            out.append(item)
+            continue
+        no, raw = item
         text = raw.split("#", 1)[0].strip() if not raw.strip().startswith("textmsg") else raw.strip()
         if not text:
             continue
@@ -111,24 +115,6 @@ def _check_payload(st: Statement) -> None:
         raise ScriptError(f"line {st.line}: {st.name}: needs a mass in 0-1000 kg and a CoG [x, y, z]")
 
 
-def _wait_loops(body: list[tuple[int, str]]) -> list[tuple[int, str]]:
-    """`while [not ]get_standard_digital_in(n):` + `sync()` + `end` as one statement
-    `wait_standard_digital_in(n, level)` (the only loop the stand-in runs)."""
-    out, i = [], 0
-    while i < len(body):
-        no, ln = body[i]
-        if ln.strip().startswith("wait_standard_digital_in"):
-            raise ScriptError(f"line {no}: unsupported statement: {ln.strip()[:80]}")
-        m = _WAIT_INPUT.match(ln.strip())
-        if m and i + 2 < len(body) and body[i + 1][1].strip() == "sync()" and body[i + 2][1].strip() == "end":
-            out.append((no, f"wait_standard_digital_in({m.group(2)}, {bool(m.group(1))})"))
-            i += 3
-            continue
-        out.append((no, ln))
-        i += 1
-    return out
-
-
 def parse_program(text: str) -> tuple[str, list[Statement]]:
     """A whole `def NAME(): ... end` program -> (name, statements); raises ScriptError."""
     lines = text.replace("\r\n", "\n").split("\n")
@@ -142,8 +128,8 @@ def parse_program(text: str) -> tuple[str, list[Statement]]:
         return "<statement>", parse_statements(numbered)
     if numbered[-1][1].strip() != "end":
         raise ScriptError(f"line {numbered[-1][0]}: program {m.group(2)} has no closing 'end'")
-    body = _wait_loops(numbered[1:-1])
-    for no, ln in body:
+    body = fold_wait_loops(numbered[1:-1])
+    for no, ln in (b for b in body if not isinstance(b, Statement)):
         if ln.strip() == "end" or re.match(r"^\s*(def|sec|thread|while|if|for)\b", ln):
             raise ScriptError(f"line {no}: nested blocks are not supported by the stand-in: {ln.strip()[:60]}")
     statements = parse_statements(body)
@@ -253,7 +239,7 @@ class URScriptProgram:
                     self._do(sts[i])
                     i += 1
             ctrl.log(f"program {self.name} finished")
-        except Killed:
+        except (Killed, Halted):
             pass
         except PlanError as exc:
             ctrl.runtime_error(str(exc), self)
@@ -348,8 +334,4 @@ class URScriptProgram:
         elif name in ("sync", "signal_async_progress"):
             ctrl.wait_tick(ctrl.tick_index)
         elif name == "wait_standard_digital_in":  # one loop test per tick, as the controller's sync()
-            bit, level, tick = 1 << int(args[0]), bool(args[1]), ctrl.tick_index
-            ctrl.record("urscript", "wait_standard_digital_in", input=int(args[0]), value=level)
-            while bool(ctrl.digital_in & bit) != level:
-                self._check()
-                tick = ctrl.wait_tick(tick)
+            run_wait(self, st)
