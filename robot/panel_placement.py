@@ -20,7 +20,7 @@ from dataclasses import replace
 import numpy as np
 
 __all__ = ["placement_for", "placed_cell", "placement_of", "clamped_face_ring", "clamped_region_ring",
-           "footprint_check"]
+           "footprint_check", "jaw_region"]
 
 
 def clamped_face_ring(fold_model, face: int) -> np.ndarray:
@@ -58,15 +58,56 @@ def clamped_region_ring(fold_model, faces) -> np.ndarray:
     return ring if area > 0 else ring[::-1]
 
 
-def footprint_check(fold_model, cell, faces, fixture=None):
-    """`fabkit.placement.ClampCheck` of the cell's clamp footprint on the clamped faces with the panel
-    placed by `fixture` (default the cell's)."""
-    from fabkit.placement import check_clamp_footprint
+def jaw_region(fold_model, faces, footprint):
+    """`fabkit.clamp_region.ClampRegion` of the sheet the jaw may clamp around the clamped faces
+    `faces` in the FOLD file's states (each face's region, joined; `faces` lists the first face's
+    region first)."""
+    from shapely.ops import unary_union
 
-    ring = clamped_region_ring(fold_model, faces)
+    from fabkit.clamp_region import clamp_region, region_joins
+    from fabkit.grip_footprint import FoldGeometry
+
+    g = FoldGeometry.of_fold(fold_model)
+    reach = float(np.linalg.norm(np.asarray(footprint, np.float64), axis=1).max())
+    joins = region_joins(g.tris, g.tri_face, g.edges, g.edge_kind)
+    flat = np.asarray(fold_model.vertices_coords, np.float64)
+    regions = [clamp_region(flat, g.tris, g.tri_face, joins, g.positions, int(f), reach) for f in faces]
+    if len(regions) == 1:
+        return regions[0]
+    shape = unary_union([r.polygon for r in regions]).buffer(0)
+    if shape.geom_type != "Polygon":
+        shape = max(shape.geoms, key=lambda p: p.area)
+    return replace(regions[0], polygon=shape, faces=tuple(dict.fromkeys(f for r in regions for f in r.faces)),
+                   worst_m=max(r.worst_m for r in regions))
+
+
+def footprint_check(fold_model, cell, faces, fixture=None):
+    """`fabkit.placement.ClampCheck` of the cell's clamp footprint with the panel placed by `fixture`
+    (default the cell's): the footprint must lie on the sheet the jaw can hold around the clamped
+    faces (`jaw_region`: the faces and the neighbours the fold states keep still under the jaw) and
+    the jaw's centre on a clamped face."""
+    from shapely.geometry import Point, Polygon
+
+    from fabkit.placement import ClampCheck, check_clamp_footprint
+
+    region = jaw_region(fold_model, faces, cell.clamp.footprint)
+    ring = np.asarray(region.polygon.exterior.coords)[:-1]
     pts = np.column_stack([ring, np.zeros(len(ring))])
     fx = cell.fixture if fixture is None else fixture
-    return check_clamp_footprint(pts, np.arange(len(ring)), int(faces[0]), fx, cell.clamp.pose, cell.clamp.footprint)
+    others = [f for f in region.faces[1:]]
+    where = f" of the sheet the jaw can hold there (faces {list(region.faces)})" if others else ""
+    res = check_clamp_footprint(pts, np.arange(len(ring)), int(faces[0]), fx, cell.clamp.pose, cell.clamp.footprint,
+                                where=where)
+    centre = np.linalg.inv(np.asarray(fx, np.float64)) @ np.asarray(cell.clamp.pose, np.float64) @ [0, 0, 0, 1.0]
+    from shapely.ops import unary_union
+
+    face = unary_union([Polygon(clamped_face_ring(fold_model, int(f))) for f in faces])
+    off = float(face.distance(Point(centre[:2])))
+    if off <= 1e-7:
+        return res
+    return ClampCheck(ok=False, face=res.face, outside_area_m2=res.outside_area_m2, outside_m=max(res.outside_m, off),
+                      off_plane_m=res.off_plane_m, problems=(*res.problems, f"the clamp jaw's centre is {off * 1000:.1f} "
+                                                              f"mm off clamped face {int(faces[0])}" + (f" (and {list(faces[1:])})" if len(faces) > 1 else "")))
 
 
 def _area_centroid(fold_model) -> np.ndarray:
@@ -82,7 +123,10 @@ def _area_centroid(fold_model) -> np.ndarray:
 def placement_for(cell, fold_model) -> dict | None:
     """The `placement` record putting the FOLD file's clamped face on `cell`'s clamp, or None (no
     clamp in the cell, or no clamped face)."""
-    from fabkit.placement import place_on_clamp
+    from shapely.geometry import Polygon
+
+    from fabkit.clamp_region import best_jaw_pose
+    from fabkit.placement import clamped_face_frame
     from robot.cell import matrix_to_pose
     from robot.holds_record import clamped_faces_of
 
@@ -98,8 +142,24 @@ def placement_for(cell, fold_model) -> dict | None:
     face = min(rings, key=lambda f: dist[f])
     ring = rings[face]
     pts = np.column_stack([ring, np.zeros(len(ring))])
-    fixture = place_on_clamp(pts, np.arange(len(ring)), cell.clamp.pose, centre)
-    return {"clamped_face": face, "fixture": [float(x) for x in matrix_to_pose(fixture)]}
+    frame = clamped_face_frame(pts, np.arange(len(ring)), centre)
+    region = jaw_region(fold_model, [face, *sorted(set(rings) - {face})], cell.clamp.footprint)
+    jaw = best_jaw_pose(region.polygon, Polygon(ring), cell.clamp.footprint, frame)
+    T = np.eye(4)
+    T[:2, :2], T[:2, 3] = jaw.frame[:2, :2], jaw.frame[:2, 2]
+    fixture = np.asarray(cell.clamp.pose, np.float64) @ np.linalg.inv(T)
+    out = {"clamped_face": face, "fixture": [float(x) for x in matrix_to_pose(fixture)]}
+    if jaw.fits:
+        jaw_faces = [f for f in region.faces if _under_jaw(fold_model, f, jaw.frame, cell.clamp.footprint)]
+        out["jaw"] = {"faces": jaw_faces, "yaw_deg": round(jaw.yaw_deg, 6), "slack_mm": round(jaw.slack_m * 1000, 6)}
+    return out
+
+
+def _under_jaw(fold_model, face: int, frame, footprint) -> bool:
+    from shapely.geometry import Polygon
+
+    fp = np.asarray(footprint, np.float64) @ np.asarray(frame)[:2, :2].T + np.asarray(frame)[:2, 2]
+    return Polygon(clamped_face_ring(fold_model, int(face))).intersection(Polygon(fp)).area > 1e-10
 
 
 def placement_of(extra: dict) -> dict | None:

@@ -153,7 +153,8 @@ def clamp_problem(check: dict | None, clamp: int) -> str | None:
     frame). Both depend only on the face's flat shape and the cell, not on which side is up."""
     for q in (check or {}).get("problems", ()):
         d = q.get("detail", "")
-        if q.get("kind") == "holds" and (f"leaves clamped face {clamp}:" in d or f"clamped face {clamp} moves" in d):
+        if q.get("kind") == "holds" and (f"leaves clamped face {clamp}:" in d or f"clamped face {clamp} moves" in d
+                                           or f"mm off clamped face {clamp}" in d):
             return f"clamp face {clamp}: {d}"
     return None
 
