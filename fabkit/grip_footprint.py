@@ -53,9 +53,10 @@ class GripCandidate:
         return self.faces[0]
 
 
-def grip_regions(seq, max_bend: float) -> list[np.ndarray]:
+def grip_regions(seq, max_bend: float, *, rulings_join: bool = False) -> list[np.ndarray]:
     """Triangle sets joined across hinges bending at most `max_bend` rad in every state of a
-    `FoldSequence` (polygon diagonals always join)."""
+    `FoldSequence` (polygon diagonals always join; with `rulings_join` rulings too: the sheet is one
+    piece across them and the planarity test then measures it)."""
     E = np.asarray(seq.edges)
     kind = np.asarray(seq.edge_kind)
     bend = np.abs(np.asarray(seq.angles)).max(axis=0)
@@ -69,6 +70,8 @@ def grip_regions(seq, max_bend: float) -> list[np.ndarray]:
     tri_of = np.repeat(np.arange(T), 3)
     eid = eid.ravel()
     join = (kind[eid] == "diagonal") | ((kind[eid] != "boundary") & (bend[eid] <= max_bend))
+    if rulings_join:
+        join |= kind[eid] == "ruling"
     order = np.argsort(eid[join], kind="stable")
     e_j, t_j = eid[join][order], tri_of[join][order]
     pair = e_j[1:] == e_j[:-1]
@@ -198,12 +201,14 @@ class FoldGeometry:
 
 
 def pad_footprint(seq, face: int, radius: float, *, lip_compliance: float = DEFAULT_LIP_COMPLIANCE,
-                  max_bend: float | None = None, cup_radius: float | None = None) -> GripCandidate:
+                  max_bend: float | None = None, cup_radius: float | None = None,
+                  rulings_join: bool = False) -> GripCandidate:
     """The pad's footprint on grip face `face` (polygon id): the disc of `radius` [m] (the pad's
     `footprint_radius`) about the face's centroid in the flat pattern, on the grip region of that
     face (hinges bending at most `max_bend`, default the lip compliance over `cup_radius`, itself
     default `radius`). `ok` when the disc lies inside the region and the sheet under it is planar to
-    `lip_compliance` in every state; `problem` says why not."""
+    `lip_compliance` in every state; `problem` says why not. With `rulings_join` the region is the
+    sheet up to the creases and the outline (`grip_regions`)."""
     if not radius > 0:
         raise ValueError("the pad radius must be positive")
     bend = lip_compliance / (radius if cup_radius is None else cup_radius) if max_bend is None else float(max_bend)
@@ -214,7 +219,7 @@ def pad_footprint(seq, face: int, radius: float, *, lip_compliance: float = DEFA
         raise ValueError(f"face {face} is not a face of the panel")
     verts = np.unique(np.asarray(seq.tris)[own])
     centre = V[verts].mean(axis=0)          # the face frame's origin: the mean of its distinct vertices
-    tris = next(t for t in grip_regions(seq, bend) if np.isin(own, t).any())
+    tris = next(t for t in grip_regions(seq, bend, rulings_join=rulings_join) if np.isin(own, t).any())
     region = unary_union([Polygon(V[t]) for t in np.asarray(seq.tris)[tris]]).buffer(0)
     from shapely.geometry import Point
 
