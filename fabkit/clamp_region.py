@@ -18,8 +18,8 @@ footprint in that region at an in-plane pose (yaw and offset): the smallest turn
 long axis at which the jaw has `PLACEMENT_TOL` of slack (the distance the jaw may be misplaced in
 any direction and still lie in the region with its centre on the clamped face), centred on the
 face's area centroid when that leaves the slack, else at the offset of most slack (the pole of
-inaccessibility of the centres that fit); when no turn gives the slack, the turn of most slack. Both are from geometry alone (no vertex or face order enters: yaws are
-measured from `fabkit.placement.clamped_face_frame`'s axis; ties go to the smallest turn).
+inaccessibility of the centres that fit); when no turn gives the slack, the turn of most slack.
+Both are from geometry alone (no vertex or face order enters: yaws are measured from `fabkit.placement.clamped_face_frame`'s axis; ties go to the smallest turn).
 
 What is in: the sheet's position under the jaw in every fold state (rigid faces), the jaw's
 outline. What is out: how hard the jaw presses, friction, and the sheet's elastic flattening under
@@ -149,7 +149,8 @@ def _erosion(region: Polygon, foot: np.ndarray):
     return region.difference(unary_union(hulls))
 
 
-def best_jaw_pose(region: Polygon, face_polygon: Polygon, footprint, face_frame, need: float = PLACEMENT_TOL) -> JawPose:
+def best_jaw_pose(region: Polygon, face_polygon: Polygon, footprint, face_frame,
+                  need: float = PLACEMENT_TOL) -> JawPose:
     """The jaw pose on `region` with its centre on `face_polygon` (module docstring): the footprint
     (k, 2) [m] in the jaw frame (its convex hull is what must fit), turned by the smallest yaw from
     the x axis of `face_frame` (4x4 or 3x3, `fabkit.placement.clamped_face_frame`) at which it has

@@ -105,9 +105,10 @@ def footprint_check(fold_model, cell, faces, fixture=None):
     off = float(face.distance(Point(centre[:2])))
     if off <= 1e-7:
         return res
+    also = f" (and {list(faces[1:])})" if len(faces) > 1 else ""
+    msg = f"the clamp jaw's centre is {off * 1000:.1f} mm off clamped face {int(faces[0])}{also}"
     return ClampCheck(ok=False, face=res.face, outside_area_m2=res.outside_area_m2, outside_m=max(res.outside_m, off),
-                      off_plane_m=res.off_plane_m, problems=(*res.problems, f"the clamp jaw's centre is {off * 1000:.1f} "
-                                                              f"mm off clamped face {int(faces[0])}" + (f" (and {list(faces[1:])})" if len(faces) > 1 else "")))
+                      off_plane_m=res.off_plane_m, problems=(*res.problems, msg))
 
 
 def _area_centroid(fold_model) -> np.ndarray:

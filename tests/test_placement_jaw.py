@@ -69,7 +69,8 @@ def test_a_neighbour_the_fold_states_turn_is_left_out_and_the_jaw_moves_off_it()
     # the chord 2 * 14.4 mm * sin 0.15 deg = 0.076 mm, under the 0.1 mm tolerance: kept
     reach = float(np.linalg.norm(JAW, axis=1).max())
     small, _, _ = _fit(0.3)
-    assert small.faces == (1, 0, 2, 3) and small.worst_m == pytest.approx(2 * reach * np.sin(np.radians(0.15)), rel=1e-6)
+    assert small.faces == (1, 0, 2, 3)
+    assert small.worst_m == pytest.approx(2 * reach * np.sin(np.radians(0.15)), rel=1e-6)
     assert small.worst_m <= JAW_TOL
     # 2 deg: 0.35 mm at face 2's far side, left out (and face 3 behind it); the jaw shifts toward face 0,
     # its centre still on face 1
