@@ -1,17 +1,20 @@
 """Where the panel sits in the cell: its clamped face on the cell's clamp.
 
-A cell with a `[clamp]` names the jaw's pose and footprint. When the cell's `[fixture]` already
-puts the clamp footprint on the clamped face(s), the panel stays where the fixture puts it.
-Otherwise the panel frame (the frame of the fold states, in which the clamped face never moves) is
-placed so that the clamped face's frame
-(`fabkit.placement.clamped_face_frame`: area centroid, principal axis toward the panel's area
-centroid, front normal; from geometry alone, so any vertex or face order gives the same placement)
-lands on the clamp pose. The planner plans in the placed cell and records the placement in
-PATH.json (`placement` {clamped_face, fixture: UR pose panel frame -> world}, inside the
-whole-document hash); the check poses the panel with the recorded fixture and fails when the clamp
-footprint leaves the clamped face. A cell without a clamp, or a FOLD file without a clamped face,
-keeps the cell's `[fixture]`. With several clamped faces (a FOLD file naming none: the faces its
-states hold still) the one nearest the panel's area centroid goes on the clamp.
+A cell with a `[clamp]` names the jaw's pose and footprint. The jaw clamps the sheet around the
+clamped face: the face and the neighbours across rulings that the fold states keep within 0.1 mm of
+their flat position under the jaw (`jaw_region`, `fabkit.clamp_region`). When the cell's
+`[fixture]` already puts the footprint on that region with its centre on the clamped face, the
+panel stays where the fixture puts it. Otherwise the panel frame (the frame of the fold states, in
+which the clamped face never moves) is placed so that the jaw pose of `fabkit.clamp_region.
+best_jaw_pose` (measured from `fabkit.placement.clamped_face_frame`: area centroid, principal axis
+toward the panel's area centroid, front normal; from geometry alone, so any vertex or face order
+gives the same placement) lands on the clamp pose. The planner plans in the placed cell and
+records the placement in PATH.json (`placement` {clamped_face, fixture: UR pose panel frame ->
+world, jaw: {faces under it, yaw_deg, slack_mm}}, inside the whole-document hash); the check poses
+the panel with the recorded fixture and fails when the footprint leaves the region or the jaw's
+centre leaves the clamped face (`footprint_check`). A cell without a clamp, or a FOLD file without
+a clamped face, keeps the cell's `[fixture]`. With several clamped faces (a FOLD file naming none:
+the faces its states hold still) the one nearest the panel's area centroid goes on the clamp.
 """
 from __future__ import annotations
 
@@ -81,16 +84,16 @@ def jaw_region(fold_model, faces, footprint):
                    worst_m=max(r.worst_m for r in regions))
 
 
-def footprint_check(fold_model, cell, faces, fixture=None):
+def footprint_check(fold_model, cell, faces, fixture=None, region=None):
     """`fabkit.placement.ClampCheck` of the cell's clamp footprint with the panel placed by `fixture`
     (default the cell's): the footprint must lie on the sheet the jaw can hold around the clamped
     faces (`jaw_region`: the faces and the neighbours the fold states keep still under the jaw) and
-    the jaw's centre on a clamped face."""
+    the jaw's centre on a clamped face. `region`: the `jaw_region` of these faces, when computed."""
     from shapely.geometry import Point, Polygon
 
     from fabkit.placement import ClampCheck, check_clamp_footprint
 
-    region = jaw_region(fold_model, faces, cell.clamp.footprint)
+    region = jaw_region(fold_model, faces, cell.clamp.footprint) if region is None else region
     ring = np.asarray(region.polygon.exterior.coords)[:-1]
     pts = np.column_stack([ring, np.zeros(len(ring))])
     fx = cell.fixture if fixture is None else fixture
@@ -134,17 +137,19 @@ def placement_for(cell, fold_model) -> dict | None:
     if getattr(cell, "clamp", None) is None:
         return None
     clamped = clamped_faces_of(fold_model)
-    if not clamped or footprint_check(fold_model, cell, clamped).ok:
+    if not clamped:
         return None
     centre = _area_centroid(fold_model)
     rings = {int(f): clamped_face_ring(fold_model, int(f)) for f in clamped}
     dist = {f: (round(float(np.linalg.norm(r.mean(axis=0) - centre)), 9), *np.round(r.mean(axis=0), 9))
             for f, r in rings.items()}
     face = min(rings, key=lambda f: dist[f])
+    region = jaw_region(fold_model, [face, *sorted(set(rings) - {face})], cell.clamp.footprint)
+    if footprint_check(fold_model, cell, clamped, region=region).ok:
+        return None
     ring = rings[face]
     pts = np.column_stack([ring, np.zeros(len(ring))])
     frame = clamped_face_frame(pts, np.arange(len(ring)), centre)
-    region = jaw_region(fold_model, [face, *sorted(set(rings) - {face})], cell.clamp.footprint)
     jaw = best_jaw_pose(region.polygon, Polygon(ring), cell.clamp.footprint, frame)
     T = np.eye(4)
     T[:2, :2], T[:2, 3] = jaw.frame[:2, :2], jaw.frame[:2, 2]
