@@ -118,3 +118,37 @@ def test_the_jaw_pose_on_the_clamp_region_is_the_same_for_a_permuted_panel(task,
     assert p0["jaw"]["yaw_deg"] == pytest.approx(p1["jaw"]["yaw_deg"], abs=1e-6) and p0["jaw"]["slack_mm"] > 0
     # the panel frame is the flat pattern turned to the set-up (the same for both), so the fixtures agree
     np.testing.assert_allclose(p0["fixture"], p1["fixture"], atol=1e-9)
+
+
+@pytest.mark.slow
+def test_the_check_refuses_a_jaw_whose_centre_is_off_the_clamped_face(task, tmp_path):
+    """The jaw moved onto a neighbour of the region: its centre leaves the clamped face (the states
+    are in that face's frame) and the check names it."""
+    import dataclasses
+
+    from shapely.geometry import Polygon
+
+    from fabkit.io.fold import load_fold
+    from fabkit.panels.production_refold import _refold, panel_setups
+    from robot.cell import load_cell, pose_to_matrix
+    from robot.panel_placement import clamped_face_ring, footprint_check, placed_cell, placement_for
+
+    cell = load_cell(CELL)
+    wide = np.array([[-0.012, -0.025], [0.012, -0.025], [0.012, 0.025], [-0.012, 0.025]])
+    cell = dataclasses.replace(cell, clamp=dataclasses.replace(cell.clamp, footprint=wide))
+    setup = panel_setups(task)[0]
+    _, text, _ = _refold(task, setup)
+    (tmp_path / "p.fold").write_text(text)
+    model = load_fold(tmp_path / "p.fold")
+    pl = placement_for(cell, model)
+    face = pl["clamped_face"]
+    assert footprint_check(model, placed_cell(cell, pl), [face]).ok
+    fx = pose_to_matrix(pl["fixture"])
+    centre = (np.linalg.inv(fx) @ cell.clamp.pose @ [0, 0, 0, 1.0])[:2]
+    other = next(f for f in pl["jaw"]["faces"] if f != face)
+    target = np.asarray(Polygon(clamped_face_ring(model, other)).representative_point().coords[0])
+    shift = np.eye(4)
+    shift[:2, 3] = centre - target                       # the neighbour's point comes under the jaw's centre
+    moved = dataclasses.replace(cell, fixture=fx @ shift)
+    res = footprint_check(model, moved, [face])
+    assert not res.ok and any(f"mm off clamped face {face}" in p for p in res.problems), res.problems
