@@ -82,7 +82,7 @@ def _displacement(flat: np.ndarray, positions: np.ndarray, tri: np.ndarray, pts:
     uv = np.linalg.solve(M, (pts - A).T).T
     bary = np.column_stack([1 - uv.sum(1), uv])
     d = positions[:, tri] - flat[tri][None]                       # (S, 3, 3) vertex displacements
-    return float(np.linalg.norm(np.einsum("kc,scd->skd", bary, d), axis=2).max()) if len(pts) else 0.0
+    return float(np.linalg.norm(np.einsum("kc,scd->skd", bary, d), axis=2).max()) if len(pts) and len(d) else 0.0
 
 
 def clamp_region(flat_vertices, tris, tri_face, tri_joins, positions, face: int, reach: float,

@@ -116,3 +116,17 @@ def test_permuted_vertices_and_triangles_give_the_same_jaw(seed):
     p2 = best_jaw_pose(r2.polygon, Polygon(ring[::-1, :2]), JAW, clamped_face_frame(ring[[2, 3, 0, 1]], [0, 1, 2, 3],
                                                                                     V.mean(0)))
     np.testing.assert_allclose(p2.frame, pose.frame, atol=1e-9)
+
+
+def test_without_fold_states_the_region_is_the_flat_sheet_around_the_face():
+    V, T, owner, E, K, _ = strip()
+    region = clamp_region(V, T, owner, region_joins(T, owner, E, K), np.zeros((0, *V.shape)), 1, 0.0145)
+    assert region.faces == (1, 0, 2, 3) and region.worst_m == 0.0
+    with pytest.raises(ValueError, match="face 9 is not a face"):
+        clamp_region(V, T, owner, region_joins(T, owner, E, K), V[None], 9, 0.0145)
+
+
+def test_a_footprint_beside_its_pose_is_refused():
+    region, _, ring = _fit()
+    with pytest.raises(ValueError, match="contain its pose's origin"):
+        best_jaw_pose(region.polygon, Polygon(ring[:, :2]), JAW + [0.02, 0.0], np.eye(4))
