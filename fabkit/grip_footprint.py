@@ -26,7 +26,7 @@ from scipy.sparse.csgraph import connected_components
 from shapely.geometry import Polygon
 from shapely.ops import polylabel, unary_union
 
-__all__ = ["GripCandidate", "grip_regions", "grip_candidates", "pad_footprint", "FoldGeometry",
+__all__ = ["GripCandidate", "grip_regions", "grip_candidates", "pad_footprint", "FoldGeometry", "cup_footprint_record",
            "DEFAULT_LIP_COMPLIANCE"]
 
 #: How far (m) the sheet under the cup may leave a plane and still seal (a bellows lip takes ~1 mm).
@@ -53,9 +53,10 @@ class GripCandidate:
         return self.faces[0]
 
 
-def grip_regions(seq, max_bend: float) -> list[np.ndarray]:
+def grip_regions(seq, max_bend: float, *, rulings_join: bool = False) -> list[np.ndarray]:
     """Triangle sets joined across hinges bending at most `max_bend` rad in every state of a
-    `FoldSequence` (polygon diagonals always join)."""
+    `FoldSequence` (polygon diagonals always join; with `rulings_join` rulings too: the sheet is one
+    piece across them and the planarity test then measures it)."""
     E = np.asarray(seq.edges)
     kind = np.asarray(seq.edge_kind)
     bend = np.abs(np.asarray(seq.angles)).max(axis=0)
@@ -69,6 +70,8 @@ def grip_regions(seq, max_bend: float) -> list[np.ndarray]:
     tri_of = np.repeat(np.arange(T), 3)
     eid = eid.ravel()
     join = (kind[eid] == "diagonal") | ((kind[eid] != "boundary") & (bend[eid] <= max_bend))
+    if rulings_join:
+        join |= kind[eid] == "ruling"
     order = np.argsort(eid[join], kind="stable")
     e_j, t_j = eid[join][order], tri_of[join][order]
     pair = e_j[1:] == e_j[:-1]
@@ -198,12 +201,14 @@ class FoldGeometry:
 
 
 def pad_footprint(seq, face: int, radius: float, *, lip_compliance: float = DEFAULT_LIP_COMPLIANCE,
-                  max_bend: float | None = None, cup_radius: float | None = None) -> GripCandidate:
+                  max_bend: float | None = None, cup_radius: float | None = None,
+                  rulings_join: bool = False) -> GripCandidate:
     """The pad's footprint on grip face `face` (polygon id): the disc of `radius` [m] (the pad's
     `footprint_radius`) about the face's centroid in the flat pattern, on the grip region of that
     face (hinges bending at most `max_bend`, default the lip compliance over `cup_radius`, itself
     default `radius`). `ok` when the disc lies inside the region and the sheet under it is planar to
-    `lip_compliance` in every state; `problem` says why not."""
+    `lip_compliance` in every state; `problem` says why not. With `rulings_join` the region is the
+    sheet up to the creases and the outline (`grip_regions`)."""
     if not radius > 0:
         raise ValueError("the pad radius must be positive")
     bend = lip_compliance / (radius if cup_radius is None else cup_radius) if max_bend is None else float(max_bend)
@@ -214,7 +219,7 @@ def pad_footprint(seq, face: int, radius: float, *, lip_compliance: float = DEFA
         raise ValueError(f"face {face} is not a face of the panel")
     verts = np.unique(np.asarray(seq.tris)[own])
     centre = V[verts].mean(axis=0)          # the face frame's origin: the mean of its distinct vertices
-    tris = next(t for t in grip_regions(seq, bend) if np.isin(own, t).any())
+    tris = next(t for t in grip_regions(seq, bend, rulings_join=rulings_join) if np.isin(own, t).any())
     region = unary_union([Polygon(V[t]) for t in np.asarray(seq.tris)[tris]]).buffer(0)
     from shapely.geometry import Point
 
@@ -233,3 +238,30 @@ def pad_footprint(seq, face: int, radius: float, *, lip_compliance: float = DEFA
     return GripCandidate(faces=polys, centre=(float(centre[0]), float(centre[1])), inscribed_m=room,
                          planarity_m=planarity, ok=not problem, problem=problem)
 
+
+
+def cup_footprint_record(fold_model, holds: dict, cup_radius: float | None, *,
+                         lip_compliance: float = DEFAULT_LIP_COMPLIANCE) -> tuple[dict | None, tuple[str, ...]]:
+    """(record, notes) of the cup's footprint on every face an arm grips in a holds record
+    (`robot.holds_record`), for a rigid program's check: the cup's disc of `cup_radius` [m] (the
+    cell's `tool.cup_radius`; None: no record) about the grip face's centre, where the planner puts
+    the TCP, on the sheet up to the creases and the outline (rulings join: `pad_footprint` with
+    `rulings_join`), planar to `lip_compliance` in every fold state. Measured and reported, not a
+    problem of the check (docs/holds.md says why); the notes say which faces fail and why."""
+    if cup_radius is None:
+        return None, ()
+    faces = sorted({int(f) for key in ("arms",) for row in holds.get(key, {}).values() for f in row if f is not None})
+    if not faces:
+        return None, ()
+    seq = FoldGeometry.of_fold(fold_model)
+    rows, notes = [], []
+    for f in faces:
+        c = pad_footprint(seq, f, float(cup_radius), lip_compliance=lip_compliance, rulings_join=True)
+        rows.append({"face": f, "ok": bool(c.ok), "room_mm": round(2000 * c.inscribed_m, 3),
+                     "planarity_mm": round(1000 * c.planarity_m, 4), "problem": c.problem.replace("pad", "cup")})
+        if not c.ok:
+            notes.append(f"grip face {f}: {c.problem.replace('pad', 'cup')}; the rigid check reports the cup's "
+                         "footprint and does not refuse on it (no seal or holding force is modelled)")
+    record = {"cup_mm": round(2000 * float(cup_radius), 3), "lip_compliance_mm": lip_compliance * 1000,
+              "enforced": False, "faces": rows}
+    return record, tuple(notes)

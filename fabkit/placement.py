@@ -93,9 +93,11 @@ class ClampCheck:
 
 
 def check_clamp_footprint(flat_vertices, face, face_id: int, fixture, clamp_pose, footprint,
-                          tol: float = BOUNDARY_TOL) -> ClampCheck:
+                          tol: float = BOUNDARY_TOL, where: str = "") -> ClampCheck:
     """Does the clamp footprint (k, 2) in the clamp pose's xy plane stay on the clamped face, with the
-    panel placed by `fixture`? Fails naming the face and how far the footprint leaves it."""
+    panel placed by `fixture`? Fails naming the face and how far the footprint leaves it. `face` may
+    be the outline of the sheet the jaw can hold around face `face_id` (`fabkit.clamp_region`);
+    `where` then names it in the problem."""
     fp = np.asarray(footprint, np.float64)
     if fp.ndim != 2 or fp.shape[1] != 2 or len(fp) < 3:
         raise ValueError("a clamp footprint is a polygon of at least 3 (x, y) points")
@@ -113,7 +115,7 @@ def check_clamp_footprint(flat_vertices, face, face_id: int, fixture, clamp_pose
     problems = []
     if outside > tol or outside_area > tol * tol:
         problems.append(f"the clamp footprint leaves clamped face {face_id}: {outside * 1000:.1f} mm outside "
-                        f"({outside_area * 1e6:.0f} mm^2 of {foot.area * 1e6:.0f} mm^2)")
+                        f"({outside_area * 1e6:.0f} mm^2 of {foot.area * 1e6:.0f} mm^2){where}")
     if off_plane > tol:
         problems.append(f"the clamp footprint is {off_plane * 1000:.1f} mm off the plane of clamped face {face_id}")
     return ClampCheck(ok=not problems, face=int(face_id), outside_area_m2=outside_area, outside_m=outside,

@@ -13,7 +13,8 @@ fabricator, and the arm reaches some and not others: so the set-ups are tried in
 
 and the first whose program plans and passes the check is kept (each with the refold and the
 check of its own). A clamp face that the check finds the clamp cannot hold (its footprint leaves
-the face, or the face bends) is not tried again with the other face up. A panel for which none
+the sheet the jaw can hold around the face, or the face bends) is not tried again with the other
+face up. A panel for which none
 passes ends with the first set-up's stage and reason, the others' named after it.
 """
 from __future__ import annotations
@@ -149,11 +150,14 @@ def _refold(task: dict, setup: Setup) -> tuple[dict | None, str | None, str]:
 
 def clamp_problem(check: dict | None, clamp: int) -> str | None:
     """The check's holds problem that no set-up clamping `clamp` escapes, or None: the clamp's
-    footprint does not fit on the face, or the face bends in the fold states (not in the clamp's
-    frame). Both depend only on the face's flat shape and the cell, not on which side is up."""
+    footprint does not fit on the sheet the jaw can hold around the face, its centre is off the
+    face, or the face bends in the fold states (not in the clamp's frame). These depend on the flat
+    pattern, the cell and how far the states move the sheet around the face, which laying the
+    other side up mirrors and does not change."""
     for q in (check or {}).get("problems", ()):
         d = q.get("detail", "")
-        if q.get("kind") == "holds" and (f"leaves clamped face {clamp}:" in d or f"clamped face {clamp} moves" in d):
+        if q.get("kind") == "holds" and (f"leaves clamped face {clamp}:" in d or f"clamped face {clamp} moves" in d
+                                           or f"mm off clamped face {clamp}" in d):
             return f"clamp face {clamp}: {d}"
     return None
 
