@@ -142,7 +142,7 @@ def test_permuted_panel_gets_the_same_phases(panel, tmp_path):
     """Vertex and face order permuted: the same regrip split, grip face (up to the permutation),
     phases and joints."""
     from robot.grip_choice import grip_order
-    from robot.phased_planner import regrip_splits
+    from robot.regrip_choice import regrip_splits
 
     mesh, _, order = shuffled(plain(reflect_tagged(1, 60.0)), seed=5)
     other = _make_panel(tmp_path, mesh)
