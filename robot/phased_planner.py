@@ -16,10 +16,11 @@ PATH.json records the phases in `phases` (inside the whole-document hash): per p
 panel. A program of one phase has no `phases` key: it is exactly the program `plan_toolpath`
 plans.
 
-The same-crease regrip (`regrip_splits`, `plan_regrip`): a fold that no single grip reaches (a
-175 deg valley closes the wing over a cup on the front; the back of the flat panel faces the bench)
-is folded on the front side to an intermediate state, where the grip face stands near vertical,
-released, and finished on the back side.
+The same-crease regrip (`robot.regrip_choice`): a fold that no single grip reaches (a 175 deg
+valley closes the wing over a cup on the front; the back of the flat panel faces the bench) is
+folded on the front side to an inner state, released, and finished on the back side. Which face,
+split state and approach distance is chosen there, by a score (fewer phases, cycle time, least
+clearance) among the alternatives that pass the check.
 
 The crease-by-crease regrip (`step_phases`): a FOLD file whose states fold the crease rows one step
 after another (`fabkit refold --steps`, `frame_fabkit:step`) is planned one phase per step, each
@@ -40,11 +41,7 @@ from fabkit.errors import InputError
 from robot.holds_record import HOLDING_OPS
 from robot.transfer import TRANSFER_LIFTS, TransferError, lifted_waypoint
 
-__all__ = ["PhaseSpec", "plan_phases", "phases_of", "regrip_splits", "plan_regrip", "regrip_faces", "step_phases",
-           "with_regrip", "REGRIP_SPLITS_TRIED"]
-
-#: Split states tried per face for a same-crease regrip (nearest a 90 deg turn of the grip face first).
-REGRIP_SPLITS_TRIED = 1
+__all__ = ["PhaseSpec", "plan_phases", "phases_of", "step_phases", "with_regrip"]
 
 
 @dataclass(frozen=True)
@@ -181,79 +178,6 @@ def phases_of(tp) -> list[dict] | None:
     return ph
 
 
-def regrip_splits(frames, face: int, tried: int = REGRIP_SPLITS_TRIED) -> list[int]:
-    """Inner fold states at which a same-crease regrip of `face` may change side, best first: the
-    grip face's normal nearest a quarter turn from the flat state (the wing stands up: its back is
-    open to the arm, and the front grip has not closed it over the cup yet)."""
-    F = frames.of_face(face)
-    z = F[:, :3, 2]
-    turn = np.degrees(np.arccos(np.clip(z @ z[0], -1.0, 1.0)))
-    inner = np.arange(1, len(F) - 1)
-    order = inner[np.argsort(np.abs(turn[inner] - 90.0), kind="stable")]
-    return [int(s) for s in order[:tried]]
-
-
-def regrip_faces(fold_model, clamped_faces, count: int = 2, min_travel: float = 1e-4, tested: int = 6) -> list[int]:
-    """Faces (polygon ids) a same-crease regrip grips, best first, at most `count`: faces that move
-    (their centroid travels more than `min_travel` [m] over the fold states), farthest travel
-    first (the most leverage, and on a bent strip the flattest surroundings toward its free end),
-    ties by the final centroid's coordinates (never by face or vertex order), each with the holds
-    proven (`fabkit.holds`) in every state with the clamped faces and that face held (the first
-    `tested` faces are tried: a panel that one grip cannot hold gets none)."""
-    from fabkit.frames import face_groups, fold_positions
-    from fabkit.hold_model_fold import hold_model_from_fold
-    from fabkit.holds import holds_along
-
-    g = face_groups(fold_model.faces_vertices, fold_model.faces_data)
-    P = fold_positions(fold_model)
-    C = np.stack([P[:, v].mean(axis=1) for v in g.vertices], axis=1)          # (S, faces, 3)
-    travel = np.linalg.norm(C - C[:1], axis=2).max(axis=0)
-    clamped = {int(f) for f in clamped_faces}
-    keys = [(-round(float(t), 9), *np.round(C[-1, i], 9).tolist()) for i, t in enumerate(travel)]
-    order = [i for i in sorted(range(len(travel)), key=lambda i: keys[i])
-             if travel[i] > min_travel and int(g.ids[i]) not in clamped]
-    model, angles = hold_model_from_fold(fold_model)
-    if len(P) == len(angles) + 1:        # a flat key frame put first (fabkit.frames.fold_positions)
-        angles = np.vstack([np.zeros_like(angles[:1]), angles])
-    out = []
-    for i in order[:tested]:
-        held = tuple(sorted(clamped | {int(g.ids[i])}))
-        if all(rep.ok for _, rep in holds_along(model, angles, held, between=0)):
-            out.append(int(g.ids[i]))
-            if len(out) == count:
-                break
-    return out
-
-
-def plan_regrip(cell, frames_of, faces, *, options, source: dict | None = None, clamped_faces=(),
-                placement: dict | None = None, accept=None, back_standoff: float | None = None):
-    """The same-crease regrip (module docstring): for each of `faces` (`regrip_faces`) with its
-    frames `frames_of(face)` (`fabkit.frames.FaceFrames`) and its `regrip_splits`, plan front
-    0..k then back k..last and return the first program that `accept` (the checker) passes, as
-    (PlanResult or None, tried) with tried [(face, problem text)] of every candidate refused."""
-    from robot.planner import PlanningError
-
-    tried = []
-    standoffs = {"front": options.grip_standoff,
-                 "back": options.grip_standoff if back_standoff is None else float(back_standoff)}
-    for face in faces:
-        frames = frames_of(face)
-        last = frames.n_states - 1
-        for k in regrip_splits(frames, face):
-            specs = (PhaseSpec(face, "front", 0, k), PhaseSpec(face, "back", k, last))
-            try:
-                res = plan_phases(cell, frames, specs, options=options, source={**(source or {}), "grip_face": face},
-                                  clamped_faces=clamped_faces, placement=placement, standoffs=standoffs)
-            except PlanningError as exc:
-                tried.append((face, f"regrip front->back at fold state {k}: {exc}"))
-                continue
-            problem = accept(res) if accept is not None else None
-            if problem is None:
-                return res, tried
-            tried.append((face, f"regrip front->back at fold state {k}: {problem}"))
-    return None, tried
-
-
 def step_phases(fold_model, frames) -> list[PhaseSpec] | None:
     """The phases of a FOLD file folded step by step (module docstring): one front-side `PhaseSpec`
     per step over the state before its first and its states, gripping the middle-row face of
@@ -288,14 +212,18 @@ def step_phases(fold_model, frames) -> list[PhaseSpec] | None:
 def with_regrip(cell, frames, fold_model, *, options, source: dict | None = None, clamped_faces=(), placement: dict | None = None,
                 accept, variants=()):
     """`robot.grip_choice.plan_panel` with the checker `accept`, and when no single grip passes
-    (none plans, or the checker refuses every one) a regrip per fold step when the FOLD file
-    `fold_model` folds step by step (`step_phases`), then the same-crease regrip (`plan_regrip` on
-    the `regrip_faces` of `fold_model`; the back side at the standoff of the back-side variant in
-    `variants`). Returns the first program that passes, else the single-grip program the check
-    will refuse (its `tried` naming the regrips refused too); raises `PlanningError` when nothing
-    plans."""
+    (none plans, or the checker refuses every one) the regrip programs compared by
+    `robot.regrip_choice.pick_alternative`: a regrip per fold step when the FOLD file `fold_model`
+    folds step by step (`step_phases`), and the same-crease regrips
+    (`robot.regrip_choice.same_crease_alternatives` on the `regrip_faces` of `fold_model`; the
+    back side at the standoff of the back-side variant in `variants`). The least clearance of a
+    passing check is read from `accept.clearances` ({toolpath sha256: m}) when the checker keeps
+    it. Returns the chosen program, else the single-grip program the check will refuse (its `tried`
+    naming the regrips refused too); raises `PlanningError` when nothing plans."""
+    from fabkit.frames import face_frames_of
     from robot.grip_choice import plan_panel
     from robot.planner import PlanningError
+    from robot.regrip_choice import Alternative, pick_alternative, regrip_faces, same_crease_alternatives
 
     verdicts = {}
 
@@ -310,32 +238,25 @@ def with_regrip(cell, frames, fold_model, *, options, source: dict | None = None
         single, failure = None, exc
     if single is not None and verdicts.get(id(single.toolpath)) is None:
         return single
-    tried = []
+    alternatives = []
     specs = step_phases(fold_model, frames)
     if specs is not None:        # folded step by step: a regrip per step
-        what = "regrip per fold step (" + ", ".join(f"face {p.face} states {p.first}-{p.last}" for p in specs) + ")"
-        try:
-            res = plan_phases(cell, frames, specs, options=options,
-                              source={**(source or {}), "grip_face": specs[0].face}, clamped_faces=clamped_faces,
-                              placement=placement)
-            problem = accept(res)
-        except PlanningError as exc:
-            problem = str(exc)
-        if problem is None:
-            return replace(res, tried=tuple(single.tried if single is not None else ()))
-        tried.append((specs[0].face, f"{what}: {problem}"))
-    from fabkit.frames import face_frames_of
-
+        label = "regrip per fold step (" + ", ".join(f"face {p.face} states {p.first}-{p.last}" for p in specs) + ")"
+        alternatives.append(Alternative(label=label, face=specs[0].face, plan=lambda: plan_phases(
+            cell, frames, specs, options=options, source={**(source or {}), "grip_face": specs[0].face},
+            clamped_faces=clamped_faces, placement=placement)))
     back = next(v for v in variants if v.grip_side == "back")
     middle = {int(f) for f in frames.faces}
-    res, same = plan_regrip(cell, lambda f: frames if f in middle else face_frames_of(fold_model, f),
-                            regrip_faces(fold_model, clamped_faces), options=options, source=source,
-                            clamped_faces=clamped_faces, placement=placement, accept=accept,
-                            back_standoff=back.grip_standoff)
-    tried += same
+    alternatives += same_crease_alternatives(
+        cell, lambda f: frames if f in middle else face_frames_of(fold_model, f),
+        regrip_faces(fold_model, clamped_faces), options=options, source=source, clamped_faces=clamped_faces,
+        placement=placement, back_standoff=back.grip_standoff)
+    clearances = getattr(accept, "clearances", None)
+    best, tried = pick_alternative(alternatives, accept=accept, clearance_of=None if clearances is None else
+                                   (lambda res: clearances.get(res.toolpath.sha256)))
     before = single.tried if single is not None else ()
-    if res is not None:
-        return replace(res, tried=tuple(before) + tuple(tried))
+    if best is not None:
+        return replace(best.result, tried=tuple(before) + tuple(tried))
     if single is not None:
         return replace(single, tried=tuple(before) + tuple(tried))
     raise PlanningError(failure.waypoint, failure.op, failure.state, failure.kind,

@@ -13,10 +13,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from robot.regrip_choice import REGRIP_CHECKS
+
 __all__ = ["checked_acceptor", "MAX_CHECKS"]
 
-#: Candidates checked at most per plan and grip side.
-MAX_CHECKS = {"front": 4, "back": 1, "regrip": 2}
+#: Candidates checked at most per plan and grip side (programs in phases: `robot.regrip_choice`).
+MAX_CHECKS = {"front": 4, "back": 1, "regrip": REGRIP_CHECKS}
 
 
 def checked_acceptor(cell, fold_file: str | Path, max_checks: dict | None = None):
@@ -43,10 +45,13 @@ def checked_acceptor(cell, fold_file: str | Path, max_checks: dict | None = None
         checked.append(res.grip_face)
         tp = res.toolpath if fold_model is None else with_jig_holds(res.toolpath, cell, fold_model)  # as written
         report = check_toolpath(tp, cell, fold=fold_file)
+        clearances[res.toolpath.sha256] = report.min_clearance_m
         if report.ok:
             return None
         p = report.problems[0]
         more = f" (+{len(report.problems) - 1} more)" if len(report.problems) > 1 else ""
         return f"{side} side: check: waypoint {p.waypoint}: {p.kind}: {p.detail}{more}"
 
+    clearances: dict[str, float | None] = {}
+    accept.clearances = clearances   # toolpath sha256 -> the check's least clearance [m] (None: none in its window)
     return accept

@@ -142,7 +142,7 @@ def test_permuted_panel_gets_the_same_phases(panel, tmp_path):
     """Vertex and face order permuted: the same regrip split, grip face (up to the permutation),
     phases and joints."""
     from robot.grip_choice import grip_order
-    from robot.phased_planner import regrip_splits
+    from robot.regrip_choice import regrip_splits
 
     mesh, _, order = shuffled(plain(reflect_tagged(1, 60.0)), seed=5)
     other = _make_panel(tmp_path, mesh)
@@ -160,3 +160,31 @@ def test_permuted_panel_gets_the_same_phases(panel, tmp_path):
     assert [p["face"] for p in b.extra["phases"]] == [int(new_of_old[p["face"]]) for p in a.extra["phases"]]
     assert [w.op for w in a.waypoints] == [w.op for w in b.waypoints]
     assert np.abs(a.joints - b.joints).max() <= 1e-6
+
+
+@pytest.mark.slow
+def test_the_chosen_regrip_is_the_same_for_a_permuted_panel(tmp_path):
+    """The one-crease 175 deg panel on the UR5e bench, as made and with vertex and face order
+    permuted: no single grip passes, and the regrip alternatives compared (faces, splits, approach
+    distances, scored by phases and cycle time) choose the same phases, grip face (up to the
+    permutation) and joints."""
+    from fabkit.toolpath_stage import plan_fold_file
+
+    mesh = plain(reflect_tagged(1, 175.0))
+    permuted, _, order = shuffled(mesh, seed=3)
+    new_of_old = np.argsort(order)
+    runs = []
+    for name, m in (("made", mesh), ("permuted", permuted)):
+        d = tmp_path / name
+        d.mkdir()
+        fold = _make_panel(d, m)[0]
+        prog = plan_fold_file(fold, CELL)
+        runs.append((prog.toolpath, [t for _, t in prog.plan.tried if t.startswith("regrip")]))
+    (a, tried_a), (b, tried_b) = runs
+    pa, pb = a.extra["phases"], b.extra["phases"]
+    assert [p["side"] for p in pa] == ["front", "back"]
+    assert [(p["side"], p["states"], p["waypoints"]) for p in pa] == [(p["side"], p["states"], p["waypoints"]) for p in pb]
+    assert [p["face"] for p in pb] == [int(new_of_old[p["face"]]) for p in pa]
+    assert np.abs(a.joints - b.joints).max() <= 1e-6
+    assert len(tried_a) == len(tried_b) >= 5      # the alternatives not chosen, each named with its score
+    assert all("2 phases, cycle" in t for t in tried_a)
