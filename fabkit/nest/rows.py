@@ -365,12 +365,35 @@ def _last_sheet_across(placements: list[Placement], n: int, parts: list[Polygon]
     return sorted(keep + back, key=lambda p: p.part)
 
 
+def _last_sheet_again(placements: list[Placement], n: int, parts: list[Polygon], options: NestOptions,
+                      grain) -> list[Placement]:
+    """The last sheet's parts nested again on their own (after some left it): kept when shorter."""
+    ids = [p.part for p in placements if p.sheet == n - 1]
+    items = [[(i, 0.0, np.asarray(parts[i].exterior.coords))] for i in ids]
+    moved, sheets, _ = _pack(items, parts, options, grain)
+    last = [p for p in placements if p.sheet == n - 1]
+    if sheets != 1 or _used_length(moved, parts) >= _used_length(last, parts) - 1e-9:
+        return placements
+    keep = [p for p in placements if p.sheet != n - 1]
+    return sorted(keep + [replace(p, sheet=n - 1) for p in moved], key=lambda p: p.part)
+
+
 def nest_rows(parts: list[Polygon], options: NestOptions) -> tuple[list[Placement], int, list[str]]:
     """Placements of `parts` on sheets by row nesting (module docstring)."""
+    from fabkit.nest.fill import fill_holes
+
     items = [[(i, 0.0, np.asarray(g.exterior.coords))] for i, g in enumerate(parts)]
     grain = grain_angles(options)
     placements, n, shelves = _pack(items, parts, options, grain)
     notes = [f"row nesting: {shelves} shelves, parts turned to their least shelf cell and slid to the gap"]
+    placements, moved = fill_holes(placements, n, parts, options, grain)
+    if moved:
+        left = sum(p.sheet == n - 1 for p in placements)
+        notes.append(f"{moved} part{'s' if moved > 1 else ''} of the last sheet moved into holes of the others")
+        if not left:
+            n -= 1
+        else:
+            placements = _last_sheet_again(placements, n, parts, options, grain)
     if n:
         across = _last_sheet_across(placements, n, parts, options, grain)
         if across is not None:
