@@ -12,9 +12,11 @@ the x axis, that turned by 90 deg, each also by 180 deg) are searched. In a piec
 at x every `X_STEP` mm; at each x the heights where it would come closer than the gap to a placed
 part are, per part, one interval, found exactly from the outlines (`rows._shift_past` with x and y
 swapped: the least shift putting it above, and the least putting it below), and the part goes to
-the lowest height outside them all. A part's interval is that of its whole outline at that x, so
-the search never accepts a spot that is too close; every move is checked again with shapely, and
-the whole nesting verified (`Nesting.verify`). Written here because no well-kept library places
+the lowest height outside them all. A part's interval is that of its whole outline at that x (exact
+for convex outlines), so the search never accepts a spot that is too close, but it does not find a
+hole inside one concave part's bay; every move is checked again with shapely, and the whole
+nesting verified (`Nesting.verify`). A part that found no spot on a sheet is not tried there again
+for a copy of it (same area and perimeter) until the sheet changes. Written here because no well-kept library places
 polygons into the holes of an existing layout (sparrow, `engine="packingsolver"`, nests from
 scratch).
 """

@@ -29,9 +29,12 @@ way, which leaves a triangle) gives way to a new shelf when a sheet has room for
 stacked with the gap between them; a new shelf goes on the first sheet with room for it above its
 shelves, a new sheet only when no sheet has.
 
-Last, the last sheet's parts are nested again with the shelves across the sheet (along its short
-side, from its left end) when that leaves a longer offcut at its right end: the sheet count is
-the same, the offcut (`Nesting.used_length_utilisation`) can go back to stock.
+Then the last sheet's parts, largest first, are dropped into the holes the shelves left on the
+earlier sheets where they fit, turned upright or across too (`fabkit.nest.fill`); the last sheet
+goes when all of them move, else its rest is nested again on its own when that is shorter. Last,
+the last sheet's parts are nested again with the shelves across the sheet (along its short side,
+from its left end) when that leaves a longer offcut at its right end: the offcut
+(`Nesting.used_length_utilisation`) can go back to stock.
 """
 from __future__ import annotations
 
