@@ -13,16 +13,22 @@ the same run is the bounding-rectangle shelf packing (`shelf`); every nesting is
 shapely (each part once, inside the margin, no two parts closer than spacing + kerf).
 
 Bounds printed with it (not nestings): the sheets the parts would need at 100 %, the sheets their
-outlines grown by half the gap need (no nesting can use fewer), and the sheets of the ideal shelf
+outlines grown by half the gap need (no nesting can use fewer), the sheets of the ideal shelf
 cells (each part, at the turn row nesting gives it, in an endless shelf of its own copies: its
-slid pitch times its height plus the gap), which row nesting can at best approach.
+slid pitch times its height plus the gap), and those cells plus the ends of the rows: a row of
+sheared parts is longer than its pitches by the part's width less its pitch (the two triangles at
+its ends, one part's shear), shared here by the copies that fill a sheet's length. That last is an
+estimate of what any nesting in rows needs, not a proof. "sheets by length" is the sheets used, the
+last counted by its used length.
 
 FABKIT_BENCH_NEST_SECONDS sets sparrow's time limit per strip solve (default 10, as in the production
-bench). FABKIT_BENCH_NEST_PARTS=FILE keeps the part outlines (JSON) in FILE between runs.
+bench); FABKIT_BENCH_NEST_SPARROW=0 leaves sparrow out (while trying things; the reported numbers
+include it). FABKIT_BENCH_NEST_PARTS=FILE keeps the part outlines (JSON) in FILE between runs.
 """
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 import time
@@ -53,6 +59,8 @@ def _build_parts(folder: Path) -> list[list[list[float]]]:
 
 
 def _bounds(parts, gap: float) -> dict:
+    from shapely import affinity
+
     from fabkit.nest.rows import ideal_shelf_cell, least_cell_angle
 
     W, H = SHEET
@@ -61,9 +69,19 @@ def _bounds(parts, gap: float) -> dict:
     # grown by gap/2, they may reach gap/2 into the margin
     usable_grown = (W - 2 * (10.0 - gap / 2)) * (H - 2 * (10.0 - gap / 2))
     room = (W - 20.0, H - 20.0)
-    cells = sum(ideal_shelf_cell(g, gap, least_cell_angle(g, gap, None, room)) for g in parts)
+    cells = ends = 0.0
+    for g in parts:
+        a = least_cell_angle(g, gap, None, room)
+        c = ideal_shelf_cell(g, gap, a)
+        x0, y0, x1, y1 = affinity.rotate(g, a, origin=(0.0, 0.0)).bounds
+        pitch = c / (y1 - y0 + gap)
+        per_row = max(1, math.floor((room[0] + gap - (x1 - x0)) / pitch) + 1)
+        cells += c
+        ends += (x1 - x0 - pitch + gap) * (y1 - y0 + gap) / per_row
+    cell_sheet = (W - 20.0) * (H - 20.0 + gap)
     return {"sheets at 100 %": area / (W * H), "sheets of the outlines grown by gap/2 (lower bound)":
-            grown / usable_grown, "sheets of ideal shelf cells": cells / ((W - 20.0) * (H - 20.0 + gap)),
+            grown / usable_grown, "sheets of ideal shelf cells": cells / cell_sheet,
+            "sheets of ideal shelf cells and row ends (estimate for rows)": (cells + ends) / cell_sheet,
             "sheets for 75 %": area / (0.75 * W * H)}
 
 
@@ -71,6 +89,7 @@ def main() -> dict:
     from shapely.geometry import Polygon
 
     from fabkit.nest import NestOptions, nest_parts
+    from fabkit.nest.engines import place
 
     limit = float(os.environ.get("FABKIT_BENCH_NEST_SECONDS", 10))
     keep = os.environ.get("FABKIT_BENCH_NEST_PARTS")
@@ -83,13 +102,17 @@ def main() -> dict:
         t_geometry = time.perf_counter() - t0
         parts = [Polygon(p) for p in json.loads(path.read_text())]
     nests = {}
-    for engine in ("shelf", "rows", "packingsolver"):
+    engines = ("shelf", "rows") if os.environ.get("FABKIT_BENCH_NEST_SPARROW") == "0" else ("shelf", "rows", "packingsolver")
+    for engine in engines:
         nests[engine] = n = nest_parts(parts, NestOptions(sheet=SHEET, engine=engine, time_limit=limit))
         again = nest_parts(parts, NestOptions(sheet=SHEET, engine=engine, time_limit=limit)) if engine != "packingsolver" else None
         rows.append({"case": f"nesting {engine}" + (f" ({limit:g} s per strip solve)" if engine == "packingsolver" else ""),
                      "parts": len(parts), "sheets": n.n_sheets, "seconds": n.seconds,
                      "utilisation (whole sheets)": n.utilisation,
                      "utilisation (last sheet by length)": n.used_length_utilisation(parts),
+                     "sheets by length": n.n_sheets - 1 + min(1.0, (max(place(parts[p.part], p).bounds[2] for p in
+                                                                  n.placements if p.sheet == n.n_sheets - 1)
+                                                              + 10.0) / SHEET[0]),
                      "ratio to shelf (whole sheets)": n.utilisation / nests["shelf"].utilisation,
                      "verified (each once, inside, gap)": not n.verify(parts),
                      "same placements on a rerun": "not deterministic (time-limited)" if again is None
@@ -98,6 +121,7 @@ def main() -> dict:
     bounds = _bounds(parts, gap)
     for k, v in bounds.items():
         print(f"   {k}: {v:.2f}")
+    print("   " + "; ".join(f"{r['case']}: {r['seconds']:.1f} s, {r['sheets by length']:.2f} sheets by length" for r in rows))
     return report("nesting", rows, {"panels": len(parts), "sheet mm": list(SHEET), "gap mm": gap,
                                     "geometry s": t_geometry, **bounds})
 

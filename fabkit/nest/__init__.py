@@ -6,8 +6,9 @@ runs along the sheet's x or y. Three engines:
 
 - `rows` (default): each part turned to its least shelf cell, best-fit onto shelves (on the floor,
   or two low parts sharing a tall shelf) and slid exactly to the gap against the parts already
-  there, so sheared sides nest; the last sheet nested across for a longer offcut
-  (`fabkit.nest.rows`; deterministic);
+  there, so sheared sides nest; then the last sheet's parts dropped into the holes of the others
+  (`fabkit.nest.fill`: lowest, then leftmost, in x and y) and the last sheet nested across for a
+  longer offcut (`fabkit.nest.rows`; deterministic);
 - `packingsolver`: irregular nesting by sparrow (Gardeyn & Wauters, through the `spyrrow`
   package): strip packing with collision detection on the true outlines. Sheets are filled by
   packing the remaining parts into a strip of the sheet's height and keeping the parts that lie

@@ -29,9 +29,12 @@ way, which leaves a triangle) gives way to a new shelf when a sheet has room for
 stacked with the gap between them; a new shelf goes on the first sheet with room for it above its
 shelves, a new sheet only when no sheet has.
 
-Last, the last sheet's parts are nested again with the shelves across the sheet (along its short
-side, from its left end) when that leaves a longer offcut at its right end: the sheet count is
-the same, the offcut (`Nesting.used_length_utilisation`) can go back to stock.
+Then the last sheet's parts, largest first, are dropped into the holes the shelves left on the
+earlier sheets where they fit, turned upright or across too (`fabkit.nest.fill`); the last sheet
+goes when all of them move, else its rest is nested again on its own when that is shorter. Last,
+the last sheet's parts are nested again with the shelves across the sheet (along its short side,
+from its left end) when that leaves a longer offcut at its right end: the offcut
+(`Nesting.used_length_utilisation`) can go back to stock.
 """
 from __future__ import annotations
 
@@ -365,12 +368,35 @@ def _last_sheet_across(placements: list[Placement], n: int, parts: list[Polygon]
     return sorted(keep + back, key=lambda p: p.part)
 
 
+def _last_sheet_again(placements: list[Placement], n: int, parts: list[Polygon], options: NestOptions,
+                      grain) -> list[Placement]:
+    """The last sheet's parts nested again on their own (after some left it): kept when shorter."""
+    ids = [p.part for p in placements if p.sheet == n - 1]
+    items = [[(i, 0.0, np.asarray(parts[i].exterior.coords))] for i in ids]
+    moved, sheets, _ = _pack(items, parts, options, grain)
+    last = [p for p in placements if p.sheet == n - 1]
+    if sheets != 1 or _used_length(moved, parts) >= _used_length(last, parts) - 1e-9:
+        return placements
+    keep = [p for p in placements if p.sheet != n - 1]
+    return sorted(keep + [replace(p, sheet=n - 1) for p in moved], key=lambda p: p.part)
+
+
 def nest_rows(parts: list[Polygon], options: NestOptions) -> tuple[list[Placement], int, list[str]]:
     """Placements of `parts` on sheets by row nesting (module docstring)."""
+    from fabkit.nest.fill import fill_holes
+
     items = [[(i, 0.0, np.asarray(g.exterior.coords))] for i, g in enumerate(parts)]
     grain = grain_angles(options)
     placements, n, shelves = _pack(items, parts, options, grain)
     notes = [f"row nesting: {shelves} shelves, parts turned to their least shelf cell and slid to the gap"]
+    placements, moved = fill_holes(placements, n, parts, options, grain)
+    if moved:
+        left = sum(p.sheet == n - 1 for p in placements)
+        notes.append(f"{moved} part{'s' if moved > 1 else ''} of the last sheet moved into holes of the others")
+        if not left:
+            n -= 1
+        else:
+            placements = _last_sheet_again(placements, n, parts, options, grain)
     if n:
         across = _last_sheet_across(placements, n, parts, options, grain)
         if across is not None:
