@@ -202,15 +202,15 @@ class FoldGeometry:
 
 def pad_footprint(seq, face: int, radius: float, *, lip_compliance: float = DEFAULT_LIP_COMPLIANCE,
                   max_bend: float | None = None, cup_radius: float | None = None,
-                  rulings_join: bool = False) -> GripCandidate:
+                  rulings_join: bool = False, tool: str = "pad") -> GripCandidate:
     """The pad's footprint on grip face `face` (polygon id): the disc of `radius` [m] (the pad's
     `footprint_radius`) about the face's centroid in the flat pattern, on the grip region of that
     face (hinges bending at most `max_bend`, default the lip compliance over `cup_radius`, itself
     default `radius`). `ok` when the disc lies inside the region and the sheet under it is planar to
     `lip_compliance` in every state; `problem` says why not. With `rulings_join` the region is the
-    sheet up to the creases and the outline (`grip_regions`)."""
+    sheet up to the creases and the outline (`grip_regions`). `tool` names it in `problem`."""
     if not radius > 0:
-        raise ValueError("the pad radius must be positive")
+        raise ValueError(f"the {tool} radius must be positive")
     bend = lip_compliance / (radius if cup_radius is None else cup_radius) if max_bend is None else float(max_bend)
     V = np.asarray(seq.flat_vertices)[:, :2]
     tri_face = np.asarray(seq.tri_face)
@@ -229,15 +229,14 @@ def pad_footprint(seq, face: int, radius: float, *, lip_compliance: float = DEFA
     planarity = _planarity(seq, tris, _disc_samples(centre, radius if inside else max(room, 1e-9)))
     problem = ""
     if not inside:
-        problem = (f"the pad ({2000 * radius:.0f} mm across its lips) does not fit on grip face {face}: the sheet "
+        problem = (f"the {tool} ({2000 * radius:.0f} mm across its lips) does not fit on grip face {face}: the sheet "
                    f"around the face centre is {2000 * room:.1f} mm across (faces {list(polys[:4])}"
                    f"{'...' if len(polys) > 4 else ''})")
     elif planarity > lip_compliance:
-        problem = (f"the sheet under the pad leaves its plane by {planarity * 1000:.2f} mm (lips take "
+        problem = (f"the sheet under the {tool} leaves its plane by {planarity * 1000:.2f} mm (lips take "
                    f"{lip_compliance * 1000:.2f} mm)")
     return GripCandidate(faces=polys, centre=(float(centre[0]), float(centre[1])), inscribed_m=room,
                          planarity_m=planarity, ok=not problem, problem=problem)
-
 
 
 def cup_footprint_record(fold_model, holds: dict, cup_radius: float | None, *,
@@ -250,17 +249,17 @@ def cup_footprint_record(fold_model, holds: dict, cup_radius: float | None, *,
     problem of the check (docs/holds.md says why); the notes say which faces fail and why."""
     if cup_radius is None:
         return None, ()
-    faces = sorted({int(f) for key in ("arms",) for row in holds.get(key, {}).values() for f in row if f is not None})
+    faces = sorted({int(f) for row in holds.get("arms", {}).values() for f in row if f is not None})
     if not faces:
         return None, ()
     seq = FoldGeometry.of_fold(fold_model)
     rows, notes = [], []
     for f in faces:
-        c = pad_footprint(seq, f, float(cup_radius), lip_compliance=lip_compliance, rulings_join=True)
+        c = pad_footprint(seq, f, float(cup_radius), lip_compliance=lip_compliance, rulings_join=True, tool="cup")
         rows.append({"face": f, "ok": bool(c.ok), "room_mm": round(2000 * c.inscribed_m, 3),
-                     "planarity_mm": round(1000 * c.planarity_m, 4), "problem": c.problem.replace("pad", "cup")})
+                     "planarity_mm": round(1000 * c.planarity_m, 4), "problem": c.problem})
         if not c.ok:
-            notes.append(f"grip face {f}: {c.problem.replace('pad', 'cup')}; the rigid check reports the cup's "
+            notes.append(f"grip face {f}: {c.problem}; the rigid check reports the cup's "
                          "footprint and does not refuse on it (no seal or holding force is modelled)")
     record = {"cup_mm": round(2000 * float(cup_radius), 3), "lip_compliance_mm": lip_compliance * 1000,
               "enforced": False, "faces": rows}

@@ -129,9 +129,8 @@ def _verify(plan_phases, seq, model: HoldModel, rows: dict, between: int) -> lis
     out = []
     for ph in plan_phases:
         a, b = ph.states
-        m = model                                  # set creases are hinges: what holds them is in the held faces
-        problems = list(ph.problems)
-        reports = holds_along(m, seq.angles[a:b + 1], ph.held_faces, between=between)
+        problems = list(ph.problems)   # set creases are hinges, not locked: what holds them is in the held faces
+        reports = holds_along(model, seq.angles[a:b + 1], ph.held_faces, between=between)
         reports = tuple((a + s, r) for s, r in reports)
         bad = [(s, r) for s, r in reports if not r.ok]
         if bad:
@@ -141,17 +140,18 @@ def _verify(plan_phases, seq, model: HoldModel, rows: dict, between: int) -> lis
         for f in ph.clamped_faces:
             verts = np.unique(seq.tris[seq.tri_face == f])
             P = seq.positions[a:b + 1][:, verts]
-            motion = max(motion, float(np.linalg.norm(P - P[:1], axis=2).max()))
-            if np.linalg.norm(P - P[:1], axis=2).max() > CLAMP_MOTION_TOL:
+            moved = float(np.linalg.norm(P - P[:1], axis=2).max())
+            motion = max(motion, moved)
+            if moved > CLAMP_MOTION_TOL:
                 who = "jig" if f in ph.jig_faces else "clamp"
                 problems.append(f"the {who} on face {f} would have to move "
-                                f"{np.linalg.norm(P - P[:1], axis=2).max() * 1000:.1f} mm while "
+                                f"{moved * 1000:.1f} mm while "
                                 f"{', '.join(f'crease {r}' for r in ph.creases)} folds (the creases are coupled)")
         for r in ph.set_creases:
             change = float(np.abs(seq.angles[a:b + 1][:, rows[r]] - seq.angles[a][rows[r]]).max())
             if change > SET_ANGLE_TOL:
                 problems.append(f"crease {r}, set in an earlier phase, would have to move {np.degrees(change):.2f} deg")
-        diag = m.locked[np.asarray(seq.edge_kind)[m.locked] == "diagonal"]
+        diag = model.locked[np.asarray(seq.edge_kind)[model.locked] == "diagonal"]
         bend = float(np.abs(seq.angles[a:b + 1][:, diag]).max()) if len(diag) else 0.0
         if bend > SET_ANGLE_TOL:
             problems.append(f"the quads would have to bend along their diagonals by up to {np.degrees(bend):.2f} deg "

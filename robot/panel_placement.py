@@ -90,6 +90,7 @@ def footprint_check(fold_model, cell, faces, fixture=None, region=None):
     faces (`jaw_region`: the faces and the neighbours the fold states keep still under the jaw) and
     the jaw's centre on a clamped face. `region`: the `jaw_region` of these faces, when computed."""
     from shapely.geometry import Point, Polygon
+    from shapely.ops import unary_union
 
     from fabkit.placement import ClampCheck, check_clamp_footprint
 
@@ -97,13 +98,10 @@ def footprint_check(fold_model, cell, faces, fixture=None, region=None):
     ring = np.asarray(region.polygon.exterior.coords)[:-1]
     pts = np.column_stack([ring, np.zeros(len(ring))])
     fx = cell.fixture if fixture is None else fixture
-    others = [f for f in region.faces[1:]]
-    where = f" of the sheet the jaw can hold there (faces {list(region.faces)})" if others else ""
+    where = f" of the sheet the jaw can hold there (faces {list(region.faces)})" if len(region.faces) > 1 else ""
     res = check_clamp_footprint(pts, np.arange(len(ring)), int(faces[0]), fx, cell.clamp.pose, cell.clamp.footprint,
                                 where=where)
     centre = np.linalg.inv(np.asarray(fx, np.float64)) @ np.asarray(cell.clamp.pose, np.float64) @ [0, 0, 0, 1.0]
-    from shapely.ops import unary_union
-
     face = unary_union([Polygon(clamped_face_ring(fold_model, int(f))) for f in faces])
     off = float(face.distance(Point(centre[:2])))
     if off <= 1e-7:
