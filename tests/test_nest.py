@@ -11,17 +11,11 @@ from shapely.geometry import LineString, Point, Polygon, box
 from fabkit.errors import InputError
 from fabkit.nest import NestOptions, nest_parts
 from fabkit.nest.engines import place
+from nest_shapes import bowed_parts
 
 
 def _parts(n=24, seed=0):
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(n):
-        w, h, sk = rng.uniform(150, 420), rng.uniform(100, 300), rng.uniform(-60, 60)
-        bow = rng.uniform(0, 30)
-        top = [(w + sk - t * w, h + bow * math.sin(math.pi * t)) for t in np.linspace(0, 1, 7)]
-        out.append(Polygon([(0, 0), (w, 0), *top]))
-    return out
+    return bowed_parts(n, seed, width=(150, 420), height=(100, 300), skew=(-60, 60), bow=(0, 30), top_points=7)
 
 
 def _independent_check(parts, nesting, sheet, gap, margin):

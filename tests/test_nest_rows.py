@@ -10,6 +10,7 @@ from shapely.geometry import Polygon, box
 from fabkit.nest import NestOptions, nest_parts
 from fabkit.nest.engines import Placement, place
 from fabkit.nest.fill import fill_holes
+from nest_shapes import bowed_parts
 
 
 def _rect(w, h):
@@ -48,14 +49,7 @@ def test_identical_parallelograms_fill_the_lattice_of_rows():
 
 
 def _mixed(n=40, seed=3):
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(n):
-        b, h, s = rng.uniform(120, 380), rng.uniform(60, 220), rng.uniform(-150, 150)
-        bow = rng.uniform(0, 25)
-        top = [(b + s - t * b, h + bow * math.sin(math.pi * t)) for t in np.linspace(0, 1, 6)]
-        out.append(Polygon([(0, 0), (b, 0), *top]))
-    return out
+    return bowed_parts(n, seed, width=(120, 380), height=(60, 220), skew=(-150, 150), bow=(0, 25), top_points=6)
 
 
 def test_rows_give_the_same_sheets_for_a_permuted_input():

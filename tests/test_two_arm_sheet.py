@@ -201,6 +201,7 @@ def test_a_plain_and_a_permuted_obj_get_the_same_split_and_loads(tmp_path):
     import json
 
     from holds_panels import trifold_pair
+    from structure_panels import shuffled
 
     from fabkit.cli import main
     from fabkit.io.obj import save_obj
@@ -208,21 +209,15 @@ def test_a_plain_and_a_permuted_obj_get_the_same_split_and_loads(tmp_path):
     from fabkit.placement import choose_clamp_face
 
     flat, target = trifold_pair()
-    rng = np.random.default_rng(5)
-    new_of_old = rng.permutation(flat.n_vertices)
-    rings = []
-    for f in rng.permutation(flat.n_faces):
-        ring = [int(new_of_old[v]) for v in flat.face(int(f))]
-        k = int(rng.integers(len(ring)))
-        rings.append(ring[k:] + ring[:k])
 
-    def renumbered(mesh):
-        V = np.empty_like(mesh.vertices)
-        V[new_of_old] = mesh.vertices
-        return PolyMesh(V, rings)
+    def plain(mesh):   # untagged
+        return PolyMesh(mesh.vertices, mesh.faces_list())
+
+    def renumbered(mesh):   # the same permutation of both meshes (same seed, same counts)
+        return shuffled(plain(mesh), seed=5)[0]
 
     out = {}
-    for name, make in {"plain": lambda m: PolyMesh(m.vertices, m.faces_list()), "permuted": renumbered}.items():
+    for name, make in {"plain": plain, "permuted": renumbered}.items():
         d = tmp_path / name
         d.mkdir()
         f, t = make(flat), make(target)
