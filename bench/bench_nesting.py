@@ -12,6 +12,10 @@ only up to its used length (`Nesting.used_length_utilisation`, the rest an offcu
 the same run is the bounding-rectangle shelf packing (`shelf`); every nesting is verified with
 shapely (each part once, inside the margin, no two parts closer than spacing + kerf).
 
+Every engine runs twice: at the default distances (`fabkit.nest.spacing.cut_spacing` for the 1 mm
+sheet the bench vault is costed as, laser cut: the fabricators' rules in docs/production.md) and at
+the 10 mm spacing and edge used before, so the effect of the distances is never read as the engine's.
+
 Bounds printed with it (not nestings): the sheets the parts would need at 100 %, the sheets their
 outlines grown by half the gap need (no nesting can use fewer), the sheets of the ideal shelf
 cells (each part, at the turn row nesting gives it, in an endless shelf of its own copies: its
@@ -58,7 +62,7 @@ def _build_parts(folder: Path) -> list[list[list[float]]]:
     return [np.asarray(g.exterior.coords).tolist() for g in parts]
 
 
-def _bounds(parts, gap: float) -> dict:
+def _bounds(parts, gap: float, edge: float) -> dict:
     from shapely import affinity
 
     from fabkit.nest.rows import ideal_shelf_cell, least_cell_angle
@@ -67,8 +71,8 @@ def _bounds(parts, gap: float) -> dict:
     area = sum(g.area for g in parts)
     grown = sum(g.buffer(gap / 2).area for g in parts)
     # grown by gap/2, they may reach gap/2 into the margin
-    usable_grown = (W - 2 * (10.0 - gap / 2)) * (H - 2 * (10.0 - gap / 2))
-    room = (W - 20.0, H - 20.0)
+    usable_grown = (W - 2 * (edge - gap / 2)) * (H - 2 * (edge - gap / 2))
+    room = (W - 2 * edge, H - 2 * edge)
     cells = ends = 0.0
     for g in parts:
         a = least_cell_angle(g, gap, None, room)
@@ -78,11 +82,22 @@ def _bounds(parts, gap: float) -> dict:
         per_row = max(1, math.floor((room[0] + gap - (x1 - x0)) / pitch) + 1)
         cells += c
         ends += (x1 - x0 - pitch + gap) * (y1 - y0 + gap) / per_row
-    cell_sheet = (W - 20.0) * (H - 20.0 + gap)
+    cell_sheet = room[0] * (room[1] + gap)
     return {"sheets at 100 %": area / (W * H), "sheets of the outlines grown by gap/2 (lower bound)":
             grown / usable_grown, "sheets of ideal shelf cells": cells / cell_sheet,
             "sheets of ideal shelf cells and row ends (estimate for rows)": (cells + ends) / cell_sheet,
             "sheets for 75 %": area / (0.75 * W * H)}
+
+
+def _settings():
+    """(label, NestOptions keywords): the default distances (1 mm sheet, laser cut, sourced:
+    `fabkit.nest.spacing`) and the 10 mm spacing and edge used before, so neither is read alone."""
+    from fabkit.nest.spacing import cut_spacing
+
+    cut = cut_spacing(1.0, "laser")
+    return [(f"default (1 mm laser: spacing {cut.spacing:g} + kerf {cut.kerf:g} mm, edge {cut.edge:g} mm)",
+             dict(spacing=cut.spacing, kerf=cut.kerf, edge=cut.edge)),
+            ("10 mm spacing + kerf 0.2 mm, edge 10 mm", dict(spacing=10.0, kerf=0.2, edge=10.0))]
 
 
 def main() -> dict:
@@ -101,29 +116,35 @@ def main() -> dict:
             path.write_text(json.dumps(_build_parts(Path(tmp))))
         t_geometry = time.perf_counter() - t0
         parts = [Polygon(p) for p in json.loads(path.read_text())]
-    nests = {}
     engines = ("shelf", "rows") if os.environ.get("FABKIT_BENCH_NEST_SPARROW") == "0" else ("shelf", "rows", "packingsolver")
-    for engine in engines:
-        nests[engine] = n = nest_parts(parts, NestOptions(sheet=SHEET, engine=engine, time_limit=limit))
-        again = nest_parts(parts, NestOptions(sheet=SHEET, engine=engine, time_limit=limit)) if engine != "packingsolver" else None
-        rows.append({"case": f"nesting {engine}" + (f" ({limit:g} s per strip solve)" if engine == "packingsolver" else ""),
-                     "parts": len(parts), "sheets": n.n_sheets, "seconds": n.seconds,
-                     "utilisation (whole sheets)": n.utilisation,
-                     "utilisation (last sheet by length)": n.used_length_utilisation(parts),
-                     "sheets by length": n.n_sheets - 1 + min(1.0, (max(place(parts[p.part], p).bounds[2] for p in
-                                                                  n.placements if p.sheet == n.n_sheets - 1)
-                                                              + 10.0) / SHEET[0]),
-                     "ratio to shelf (whole sheets)": n.utilisation / nests["shelf"].utilisation,
-                     "verified (each once, inside, gap)": not n.verify(parts),
-                     "same placements on a rerun": "not deterministic (time-limited)" if again is None
-                     else again.placements == n.placements, "target": 0.75})
-    gap = NestOptions().gap
-    bounds = _bounds(parts, gap)
-    for k, v in bounds.items():
-        print(f"   {k}: {v:.2f}")
-    print("   " + "; ".join(f"{r['case']}: {r['seconds']:.1f} s, {r['sheets by length']:.2f} sheets by length" for r in rows))
-    return report("nesting", rows, {"panels": len(parts), "sheet mm": list(SHEET), "gap mm": gap,
-                                    "geometry s": t_geometry, **bounds})
+    extra = {}
+    for label, dist in _settings():
+        nests = {}
+        for engine in engines:
+            opts = NestOptions(sheet=SHEET, engine=engine, time_limit=limit, **dist)
+            nests[engine] = n = nest_parts(parts, opts)
+            again = nest_parts(parts, opts) if engine != "packingsolver" else None
+            rows.append({"case": f"nesting {engine}" + (f" ({limit:g} s per strip solve)" if engine == "packingsolver" else ""),
+                         "distances": label, "parts": len(parts), "sheets": n.n_sheets, "seconds": n.seconds,
+                         "utilisation (whole sheets)": n.utilisation,
+                         "utilisation (last sheet by length)": n.used_length_utilisation(parts),
+                         "sheets by length": n.n_sheets - 1 + min(1.0, (max(place(parts[p.part], p).bounds[2] for p in
+                                                                      n.placements if p.sheet == n.n_sheets - 1)
+                                                                  + opts.edge) / SHEET[0]),
+                         "ratio to shelf (whole sheets)": n.utilisation / nests["shelf"].utilisation,
+                         "verified (each once, inside, gap)": not n.verify(parts),
+                         "same placements on a rerun": "not deterministic (time-limited)" if again is None
+                         else again.placements == n.placements, "target": 0.75})
+        gap = dist["spacing"] + dist["kerf"]
+        bounds = _bounds(parts, gap, dist["edge"])
+        print(f"   {label}, gap {gap:g} mm:")
+        for k, v in bounds.items():
+            print(f"     {k}: {v:.2f}")
+        extra[label] = {"gap mm": gap, "edge mm": dist["edge"], **bounds}
+    print("   " + "; ".join(f"{r['case']} [{r['distances'].split(' (')[0].split(' +')[0]}]: {r['seconds']:.1f} s, "
+                            f"{r['sheets by length']:.2f} sheets by length" for r in rows))
+    return report("nesting", rows, {"panels": len(parts), "sheet mm": list(SHEET), "geometry s": t_geometry,
+                                    "bounds": extra})
 
 
 if __name__ == "__main__":

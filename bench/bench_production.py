@@ -34,6 +34,7 @@ CELL = ROOT / "cells" / "ur5e_bench.toml"
 def main() -> dict:
     from fabkit.generate.pleated import pleated_vault
     from fabkit.nest import NestOptions, nest_panels, write_sheets
+    from fabkit.nest.spacing import cut_spacing
     from fabkit.panels.layout import layout_panels
     from fabkit.panels.executor import panel_executor
     from fabkit.panels.output import write_run
@@ -65,7 +66,8 @@ def main() -> dict:
             write_run(run.geometry, out, plots=False, cut_files=True, executor=ex)
             t_files = time.perf_counter() - t0
         t0 = time.perf_counter()
-        nest = nest_panels(run, NestOptions(engine="rows"))
+        cut = cut_spacing(mat.thickness * 1e3, "laser")  # as `fabkit panels --cell` for this sheet
+        nest = nest_panels(run, NestOptions.for_cut(cut, engine="rows"))
         t_nest = time.perf_counter() - t0
         sheets = write_sheets(run, nest, out / "sheets", mat)
         rep = summary(run, nest, mat, layout)
@@ -103,7 +105,7 @@ def main() -> dict:
                      "seconds per computed part (workers)": cpu_workers / max(1, computed)})
         nests = {"rows": nest}
         for engine, limit in (("shelf", 0), ("packingsolver", 10)):
-            nests[engine] = nest_panels(run, NestOptions(engine=engine, time_limit=limit))
+            nests[engine] = nest_panels(run, NestOptions.for_cut(cut, engine=engine, time_limit=limit))
         for engine, n in nests.items():
             nn = n.nesting
             problems = nn.verify(n.parts)

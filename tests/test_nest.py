@@ -41,7 +41,7 @@ def test_nesting_places_every_part_once_without_overlap(engine):
     opts = NestOptions(sheet=(1500.0, 800.0), spacing=8.0, kerf=0.5, engine=engine, time_limit=3)
     n = nest_parts(parts, opts)
     assert n.verify(parts) == []
-    _independent_check(parts, n, opts.sheet, opts.gap, opts.spacing)
+    _independent_check(parts, n, opts.sheet, opts.gap, opts.edge)
     assert 0 < n.utilisation <= n.used_length_utilisation(parts) <= 1
 
 

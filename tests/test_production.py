@@ -214,11 +214,16 @@ def test_sheets_hold_every_panel_once(produced):
         assert len(marks) == len(info["panels"])
         assert all(t == "FACE UP: FRONT (valleys fold up); 0.5 mm 1100-H14; grooves on the inside of each fold: "
                         "valleys front, mountains back" for t in marks)
-        sheet = box(0, 0, *rep["totals"]["sheet_mm"])
-        assert len(outlines) == len(info["panels"]) and all(sheet.contains(o) for o in outlines)
+        # the run's distances are the cutting rule's for 0.5 mm sheet, laser cut: web max(2, 1.5 t) = 2 mm,
+        # kerf 0.2 mm, 5 mm to the sheet edge (fabkit.nest.spacing)
+        nesting = rep["nesting"]
+        assert (nesting["spacing_mm"], nesting["kerf_mm"], nesting["edge_mm"]) == (2.0, 0.2, 5.0)
+        W, H = rep["totals"]["sheet_mm"]
+        inner = box(5.0 - 1e-6, 5.0 - 1e-6, W - 5.0 + 1e-6, H - 5.0 + 1e-6)
+        assert len(outlines) == len(info["panels"]) and all(inner.contains(o) for o in outlines)
         for i, a in enumerate(outlines):
             for b in outlines[i + 1:]:
-                assert a.distance(b) >= 10.0 - 1e-6  # spacing 10 mm + kerf 0.2 mm
+                assert a.distance(b) >= 2.2 - 1e-6  # spacing 2 mm + kerf 0.2 mm
         seen += info["panels"]
     assert sorted(seen) == sorted(p["name"] for p in rep["panels"])
 
@@ -330,7 +335,8 @@ def test_production_refuses_bad_options_before_any_work(tmp_path):
     save_obj(pleated_vault(**SMALL), src)
     base = [src, "-o", tmp_path / "out", "--cols", 2, "--columns-per-panel", 4]
     for extra, word in ((["--cell", tmp_path / "nope.toml"], "nope.toml"), (["--cell", CELL, "--sheet", "12x"], "--sheet"),
-                        (["--cell", CELL, "--material", "wood"], "wood"), (["--cell", CELL, "--frames", 1], "--frames")):
+                        (["--cell", CELL, "--material", "wood"], "wood"), (["--cell", CELL, "--frames", 1], "--frames"),
+                        (["--cell", CELL, "--spacing", -1], "--spacing")):
         r = _run([*base, *extra], timeout=120)
         assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and word in r.stderr, r.stderr
         assert not (tmp_path / "out").exists()

@@ -73,8 +73,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="refold, program and check every panel, also panels that are the same part as another "
                         "(default: once per part, within 0.1 um; docs/production.md)")
     g.add_argument("--sheet", default="2500x1250", metavar="WxH", help="stock sheet size in mm (default 2500x1250)")
-    g.add_argument("--spacing", type=float, default=10.0, help="gap between parts and to the sheet edge, mm (default 10)")
-    g.add_argument("--kerf", type=float, default=0.2, help="cutting kerf in mm, added to the spacing (default 0.2)")
+    g.add_argument("--cut", choices=("laser", "waterjet"), default="laser",
+                   help="cutting process the sheets are nested for (default laser): its kerf and the spacing rule")
+    g.add_argument("--spacing", type=float, default=None,
+                   help="web between neighbouring parts' kerfs, mm (default: max(2, 1.5 x sheet thickness), "
+                        "fabricators' rule, docs/production.md)")
+    g.add_argument("--kerf", type=float, default=None,
+                   help="cutting kerf in mm, added to the spacing (default: laser 0.2, waterjet 1.0)")
+    g.add_argument("--edge-margin", type=float, default=None,
+                   help="part outlines to the sheet edge, mm (default: 5, at least half the gap between parts)")
     g.add_argument("--grain", choices=("none", "x", "y"), default="none",
                    help="keep each panel's arcs along the sheet's grain direction (default: any rotation)")
     g.add_argument("--nester", choices=("rows", "packingsolver", "shelf"), default="rows",

@@ -95,8 +95,9 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     sheet = _parse_sheet(args.sheet)
     if args.frames < 2:
         raise InputError(f"must be >= 2 (flat and folded), got {args.frames}", source="--frames")
-    if args.spacing < 0 or args.kerf < 0:
-        raise InputError("spacing and kerf must not be negative", source="--spacing/--kerf")
+    from fabkit.nest.spacing import cut_spacing
+
+    cut = cut_spacing(mat.thickness * 1e3, args.cut, spacing=args.spacing, kerf=args.kerf, edge=args.edge_margin)
     overrides = _overrides(args.overrides)
     unknown = sorted(set(overrides) - {p.name for p in layout.panels})
     if unknown:
@@ -121,8 +122,7 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     seconds = dict(run.seconds)
     seconds["geometry_files"] = time.perf_counter() - t1
     t1 = time.perf_counter()
-    nopts = NestOptions(sheet=sheet, spacing=args.spacing, kerf=args.kerf, grain=args.grain, engine=args.nester,
-                        time_limit=args.nest_seconds)
+    nopts = NestOptions.for_cut(cut, sheet=sheet, grain=args.grain, engine=args.nester, time_limit=args.nest_seconds)
     nesting = nest_panels(run, nopts)
     show("nesting", len(nesting.placements), len(layout.panels))
     sheets = write_sheets(run, nesting, out / "sheets", mat, sheet=spec)

@@ -12,6 +12,7 @@ from shapely import affinity
 from shapely.geometry import Polygon, box
 
 from fabkit.errors import InputError, ToleranceError
+from fabkit.nest.spacing import CutSpacing, cut_spacing
 
 __all__ = ["NestOptions", "Placement", "Nesting", "nest_parts", "place", "grain_angles", "ENGINES"]
 
@@ -19,11 +20,19 @@ __all__ = ["NestOptions", "Placement", "Nesting", "nest_parts", "place", "grain_
 ENGINES = ("rows", "packingsolver", "shelf")
 
 
+#: the distances of the sheet a run is costed as when no material is named: 1 mm, laser cut
+_DEFAULT_CUT = cut_spacing()
+
+
 @dataclass(frozen=True)
 class NestOptions:
+    """Sheet size, distances and engine of a nesting; the default distances are
+    `fabkit.nest.spacing.cut_spacing()` (1 mm sheet, laser cut; `for_cut` for another sheet)."""
+
     sheet: tuple[float, float] = (2500.0, 1250.0)  # mm
-    spacing: float = 10.0                          # gap between parts and to the sheet edge [mm]
-    kerf: float = 0.2                              # cutting kerf [mm], added to the gap between parts
+    spacing: float = _DEFAULT_CUT.spacing          # web between parts' kerfs [mm] (gap = spacing + kerf)
+    kerf: float = _DEFAULT_CUT.kerf                # cutting kerf [mm], added to the gap between parts
+    edge: float = _DEFAULT_CUT.edge                # part outlines to the sheet's edge [mm]
     grain: str = "none"                            # "none" (any rotation), "x" or "y": grain axis direction
     engine: str = "rows"                           # "rows", "packingsolver" (sparrow) or "shelf"
     time_limit: float = 30.0                       # seconds per strip solve (packingsolver)
@@ -32,6 +41,11 @@ class NestOptions:
     @property
     def gap(self) -> float:
         return self.spacing + self.kerf
+
+    @classmethod
+    def for_cut(cls, cut: CutSpacing, **kw) -> "NestOptions":
+        """Options with the distances of `cut` (`fabkit.nest.spacing.cut_spacing`), the rest from `kw`."""
+        return cls(spacing=cut.spacing, kerf=cut.kerf, edge=cut.edge, **kw)
 
 
 @dataclass(frozen=True)
@@ -78,7 +92,7 @@ class Nesting:
         if not self.n_sheets:
             return 0.0
         last = [place(parts[p.part], p) for p in self.placements if p.sheet == self.n_sheets - 1]
-        length = max(g.bounds[2] for g in last) + self.options.spacing
+        length = max(g.bounds[2] for g in last) + self.options.edge
         W, H = self.options.sheet
         return self.part_area / ((self.n_sheets - 1) * W * H + min(length, W) * H)
 
@@ -90,7 +104,7 @@ class Nesting:
         if ids != list(range(len(parts))):
             problems.append(f"parts placed {len(ids)} times for {len(parts)} parts (each must be placed once)")
         W, H = self.options.sheet
-        m = self.options.spacing
+        m = self.options.edge
         inner = box(m - tol, m - tol, W - m + tol, H - m + tol)
         by_sheet: dict[int, list] = {}
         for p in self.placements:
@@ -128,7 +142,7 @@ def grain_angles(options: NestOptions) -> list[float] | None:
 
 def _check_fits(parts, options: NestOptions) -> None:
     W, H = options.sheet
-    m = options.spacing
+    m = options.edge
     for i, g in enumerate(parts):
         if options.grain == "none":
             a, b = sorted(_rect_sides(g.minimum_rotated_rectangle))
@@ -153,7 +167,7 @@ def _rect_sides(r: Polygon) -> tuple[float, float]:
 def _shelf(parts, options: NestOptions) -> tuple[list[Placement], int]:
     """First-fit decreasing height on shelves of bounding rectangles (the baseline)."""
     W, H = options.sheet
-    m, gap = options.spacing, options.gap
+    m, gap = options.edge, options.gap
     oriented = []
     for i, g in enumerate(parts):
         if options.grain == "none":
@@ -190,7 +204,7 @@ def _sparrow(parts, options: NestOptions) -> tuple[list[Placement], int, list[st
     import spyrrow
 
     W, H = options.sheet
-    m, gap = options.spacing, options.gap
+    m, gap = options.edge, options.gap
     usable = W - 2 * m
     angles = grain_angles(options)
     remaining = list(range(len(parts)))

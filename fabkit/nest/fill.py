@@ -70,7 +70,7 @@ class _Sheet:
     def free(self) -> list[Polygon]:
         if self._free is None:
             W, H = self.options.sheet
-            m, gap = self.options.spacing, self.options.gap
+            m, gap = self.options.edge, self.options.gap
             taken = unary_union([g.buffer(gap, join_style="mitre", mitre_limit=10.0) for g in self.geoms])
             room = box(m, m, W - m, H - m).difference(taken)
             self._free = [p for p in getattr(room, "geoms", [room]) if p.area > 0]
@@ -79,7 +79,7 @@ class _Sheet:
     def clear(self, g: Polygon) -> bool:
         """Is `g` inside the margin and at least the gap from every placed part (shapely)?"""
         W, H = self.options.sheet
-        m = self.options.spacing
+        m = self.options.edge
         if not box(m, m, W - m, H - m).contains(g):
             return False
         return not any(shapely.dwithin(g, o, self.options.gap) for o in self.geoms)
@@ -118,7 +118,7 @@ def _spot(part: Polygon, sheet: _Sheet, grain) -> Placement | None:
     piece only with that disk's centre in the piece shrunk by the radius: only those x and y are
     searched."""
     H = sheet.options.sheet[1]
-    m = sheet.options.spacing
+    m = sheet.options.edge
     circle = shapely.maximum_inscribed_circle(part, 0.5)
     centre = np.asarray(circle.coords[0])
     r = circle.length - 0.5  # its radius, less the tolerance: a necessary condition only

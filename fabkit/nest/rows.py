@@ -39,7 +39,6 @@ from its left end) when that leaves a longer offcut at its right end: the offcut
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 from shapely import affinity
@@ -265,7 +264,7 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
     in the item [deg], outline in item coordinates)]: each item turned to its least height (or
     that + 180 deg), by decreasing height, onto the shelf where it wastes least (module docstring)."""
     W, H = options.sheet
-    m, gap = options.spacing, options.gap
+    m, gap = options.edge, options.gap
     variants = []  # per item: [(turn, [(pid, angle, outline at lower left)], width, height)]
     for item in items:
         hull = Polygon(np.vstack([P for _, _, P in item])).convex_hull
@@ -333,57 +332,10 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
     return sorted(out, key=lambda p: p.part), n_sheets, len(shelves)
 
 
-def _used_length(placements: list[Placement], parts: list[Polygon]) -> float:
-    """Rightmost x [mm] of the placed parts."""
-    from fabkit.nest.engines import place
-
-    return max(place(parts[p.part], p).bounds[2] for p in placements)
-
-
-def _last_sheet_across(placements: list[Placement], n: int, parts: list[Polygon], options: NestOptions,
-                       grain) -> list[Placement] | None:
-    """The last sheet's parts nested again with shelves across the sheet (along its short side),
-    stacked from its left end, when that leaves a longer offcut at its right end; None otherwise.
-    Nested on the sheet turned by 90 deg (grain x there is grain y here), then turned back."""
-    W, H = options.sheet
-    m = options.spacing
-    last = [p for p in placements if p.sheet == n - 1]
-    ids = [p.part for p in last]
-    turned = {"none": "none", "x": "y", "y": "x"}[options.grain]
-    across = replace(options, sheet=(H, W), grain=turned)
-    items = [[(i, 0.0, np.asarray(parts[i].exterior.coords))] for i in ids]
-    moved, sheets, _ = _pack(items, parts, across, grain_angles(across))
-    if sheets != 1:
-        return None
-    back = []
-    for p in moved:  # (x', y') on the turned sheet is (y', H - x') here: a turn by -90 deg
-        back.append(Placement(part=p.part, sheet=n - 1, angle=(p.angle - 90.0) % 360.0, x=p.y, y=H - p.x))
-    from fabkit.nest.engines import place
-
-    inside = all(b[0] >= m - 1e-6 and b[1] >= m - 1e-6 and b[2] <= W - m + 1e-6 and b[3] <= H - m + 1e-6
-                 for b in (place(parts[p.part], p).bounds for p in back))
-    if not inside or _used_length(back, parts) >= _used_length(last, parts) - 1e-9:
-        return None  # a part that only fits along the sheet, or no longer offcut
-    keep = [p for p in placements if p.sheet != n - 1]
-    return sorted(keep + back, key=lambda p: p.part)
-
-
-def _last_sheet_again(placements: list[Placement], n: int, parts: list[Polygon], options: NestOptions,
-                      grain) -> list[Placement]:
-    """The last sheet's parts nested again on their own (after some left it): kept when shorter."""
-    ids = [p.part for p in placements if p.sheet == n - 1]
-    items = [[(i, 0.0, np.asarray(parts[i].exterior.coords))] for i in ids]
-    moved, sheets, _ = _pack(items, parts, options, grain)
-    last = [p for p in placements if p.sheet == n - 1]
-    if sheets != 1 or _used_length(moved, parts) >= _used_length(last, parts) - 1e-9:
-        return placements
-    keep = [p for p in placements if p.sheet != n - 1]
-    return sorted(keep + [replace(p, sheet=n - 1) for p in moved], key=lambda p: p.part)
-
-
 def nest_rows(parts: list[Polygon], options: NestOptions) -> tuple[list[Placement], int, list[str]]:
     """Placements of `parts` on sheets by row nesting (module docstring)."""
     from fabkit.nest.fill import fill_holes
+    from fabkit.nest.last_sheet import last_sheet_across, last_sheet_again, used_length
 
     items = [[(i, 0.0, np.asarray(g.exterior.coords))] for i, g in enumerate(parts)]
     grain = grain_angles(options)
@@ -396,12 +348,12 @@ def nest_rows(parts: list[Polygon], options: NestOptions) -> tuple[list[Placemen
         if not left:
             n -= 1
         else:
-            placements = _last_sheet_again(placements, n, parts, options, grain)
+            placements = last_sheet_again(placements, n, parts, options, grain)
     if n:
-        across = _last_sheet_across(placements, n, parts, options, grain)
+        across = last_sheet_across(placements, n, parts, options, grain)
         if across is not None:
             notes.append(f"last sheet nested across from its left end: used to "
-                         f"{_used_length([p for p in across if p.sheet == n - 1], parts) + options.spacing:.0f} mm "
+                         f"{used_length([p for p in across if p.sheet == n - 1], parts) + options.edge:.0f} mm "
                          f"of {options.sheet[0]:g} mm")
             placements = across
     return placements, n, notes

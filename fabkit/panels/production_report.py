@@ -76,7 +76,7 @@ def summary(run, nest, mat, layout) -> dict:
         "recomputed": run.recomputed, "seconds_by_stage": run.seconds,
         "nesting": {"engine": nest.nesting.engine, "seconds": nest.nesting.seconds, "notes": list(nest.nesting.notes),
                     "spacing_mm": nest.nesting.options.spacing, "kerf_mm": nest.nesting.options.kerf,
-                    "grain": nest.nesting.options.grain},
+                    "edge_mm": nest.nesting.options.edge, "grain": nest.nesting.options.grain},
         "panels": per,
         "assembly": assembly(layout),
     }

@@ -165,7 +165,8 @@ material {e(mat["name"])} ({mat["thickness_m"] * 1e3:g} mm)</p>
 <script type="application/json" id="panel-data">{panel_data}</script>
 <h2>Nesting</h2>
 <p class="muted">{e(report["nesting"]["engine"])}, gap {report["nesting"]["spacing_mm"]:g} mm + kerf
-{report["nesting"]["kerf_mm"]:g} mm, grain {e(report["nesting"]["grain"])}; {e('; '.join(report["nesting"]["notes"]))}</p>
+{report["nesting"]["kerf_mm"]:g} mm, {report["nesting"].get("edge_mm", report["nesting"]["spacing_mm"]):g} mm to the
+sheet edge, grain {e(report["nesting"]["grain"])}; {e('; '.join(report["nesting"]["notes"]))}</p>
 {''.join(sheets)}
 <h2>Assembly</h2>
 <p class="muted">Also in <a href="assembly.json">assembly.json</a>.</p>
