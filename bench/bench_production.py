@@ -7,7 +7,10 @@ geometry files, nesting, sheets and book. Target: <= 120 s in all.
 Nesting utilisation = total panel (flat pattern) area / area of the sheets used, every sheet counted
 whole (the strict number; target >= 75 %), and also with the last sheet counted only up to its
 used length (the rest an offcut). Engines in the same run: the bounding-box shelf packing
-(baseline), row nesting (`rows`, the default) and sparrow (`packingsolver`, 10 s per strip solve).
+(baseline), row nesting (`rows`, the default) and sparrow (`packingsolver`, 10 s per strip solve),
+all at the distances `fabkit panels --cell` gives the run's 1 mm 5052-H32 sheet, laser cut
+(`fabkit.nest.spacing.cut_spacing`: 2.2 mm between parts, 5 mm to the edge; `python -m bench
+nesting` compares them with the 10 mm spacing used before).
 
 On a shared machine the wall time is inflated by the other processes; the CPU seconds of the main
 process and of the workers are printed too, and main CPU + workers' CPU / 2 as the estimate of the

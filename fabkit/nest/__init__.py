@@ -1,8 +1,9 @@
 """Nesting flat patterns on stock sheets, and the cut files of each sheet.
 
 `nest_parts(parts, options)` places polygons (mm) on rectangular sheets with a gap between parts
-and to the sheet edge (`spacing + kerf`), rotation free or (`grain`) held so each part's grain axis
-runs along the sheet's x or y. Three engines:
+(`spacing + kerf`) and a margin to the sheet edge (`edge`), by default those of 1 mm sheet cut by
+laser (`fabkit.nest.spacing.cut_spacing`: fabricators' rules), rotation free or (`grain`) held so
+each part's grain axis runs along the sheet's x or y. Three engines:
 
 - `rows` (default): each part turned to its least shelf cell, best-fit onto shelves (on the floor,
   or two low parts sharing a tall shelf) and slid exactly to the gap against the parts already
