@@ -25,7 +25,7 @@ from typing import IO, Iterator
 from fabkit.errors import InputError, OutputError
 
 __all__ = ["atomic_write", "atomic_path", "StagedWrites", "clean_stale", "temp_sibling", "staging_path",
-           "name_max", "is_temp_name", "write_error"]
+           "written_path", "name_max", "is_temp_name", "write_error"]
 
 #: `.NAME.fabkit-<pid>-<token>.tmp` (+ the target's extension); also matches staging folders inside
 TEMP_NAME = re.compile(r"^\..*?\.fabkit-(\d+)-[0-9a-f]+\.tmp(?:\.|$)")
@@ -225,6 +225,15 @@ def staging_path(path: str | os.PathLike) -> Path:
         return Path(path)
     hit[1].written = True
     return hit[0]
+
+
+def written_path(path: str | os.PathLike) -> Path:
+    """Where `path` written earlier in this run is now: its staged file until the stage commits
+    (for a step that reads another's output, e.g. the book embedding the sheet pictures)."""
+    hit = _staged(Path(path))
+    if hit is not None and hit[0].exists():
+        return hit[0]
+    return Path(path)
 
 
 @contextlib.contextmanager

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fabkit.io.atomic import atomic_write
+from fabkit.io.atomic import atomic_write, written_path
 from fabkit.io.jsonfile import to_jsonable, write_json
 from fabkit.report.html import CSS
 
@@ -124,7 +124,7 @@ def book_html(run, report: dict, out: Path) -> str:
     figs = _surface_figures(run, report)
     sheets = []
     for s in report.get("sheets", []):
-        png = out / s["png"] if s.get("png") else None
+        png = written_path(out / s["png"]) if s.get("png") else None  # staged until the run commits
         uri = ("data:image/png;base64," + base64.b64encode(png.read_bytes()).decode("ascii")) if png and png.is_file() else ""
         sheets.append(f'<figure><img alt="sheet {s["sheet"]}" src="{uri}"><figcaption>sheet {s["sheet"]}: '
                       f'{len(s["panels"])} panels, {s["utilisation"]:.0%} of the sheet; <a href="{e(s["dxf"])}">DXF</a> '
