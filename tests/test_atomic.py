@@ -86,6 +86,21 @@ def test_a_staged_folder_is_merged_at_commit(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["run"]
 
 
+def test_a_file_written_into_a_staged_folder_is_read_from_the_stage_until_the_commit(tmp_path):
+    from fabkit.io.atomic import StagedWrites, written_path
+
+    out = tmp_path / "run"
+    with StagedWrites() as staged:
+        staged.add_folder(out)
+        with atomic_path(out / "sheets" / "s.png") as tmp:
+            tmp.write_bytes(b"png")
+        here = written_path(out / "sheets" / "s.png")
+        assert here != out / "sheets" / "s.png" and here.read_bytes() == b"png"
+        assert written_path(out / "none.png") == out / "none.png"  # not written: the path itself
+        staged.commit()
+    assert written_path(out / "sheets" / "s.png") == out / "sheets" / "s.png"
+
+
 def test_write_errors_name_the_target(tmp_path):
     import resource
 
