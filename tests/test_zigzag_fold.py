@@ -1,8 +1,6 @@
 """A plain two-crease 175 deg zigzag (reflection method: a valley and a mountain, no tags) through
-relax -> unfold -> refold -> toolpath -> check -> dry-run send on the UR5e bench cell, with no
-tags, drive file, grip face or unit flag. On the UR10e fold table the same program is refused by the
-cup: its 60 mm flat lip spans sheet that curves 0.62 mm away over the fold states (the lip takes
-0.5 mm), where the bench's 50 mm lip fits.
+relax -> unfold -> refold -> toolpath -> check -> dry-run send on the UR10e fold-table cell, with no
+tags, drive file, grip face or unit flag.
 
 Clamped at its mountain end, the zigzag's far strip would travel face up along a U under the clamp
 (0.22 m below the panel, 8 cm over the table) and end tucked 19 mm under the clamped strip: the
@@ -21,8 +19,7 @@ from fabkit.cli import main
 from fabkit.io.obj import load_obj, save_obj
 from structure_panels import plain, reflect_tagged
 
-CELL = str(Path(__file__).resolve().parent.parent / "cells" / "ur5e_bench.toml")
-TABLE = str(Path(__file__).resolve().parent.parent / "cells" / "ur10e_fold_table.toml")
+CELL = str(Path(__file__).resolve().parent.parent / "cells" / "ur10e_fold_table.toml")
 
 
 @pytest.mark.slow
@@ -57,13 +54,6 @@ def test_a_175_deg_zigzag_is_folded_from_its_valley_end_and_sent(tmp_path):
     assert rep["ok"] and rep["holds"]["ok"] and all(st["ok"] for st in rep["holds"]["states"])
     assert rep["panel_collisions"]["ok"]
     assert rep["holds"]["cup_footprint"]["enforced"] and all(f["ok"] for f in rep["holds"]["cup_footprint"]["faces"])
-
-    # the UR10e table's 60 mm cup: every face that plans is refused by the check, and the check names the cup
-    table, table_check = tmp_path / "table.json", tmp_path / "table_check.json"
-    assert main(["toolpath", str(seq), "--cell", TABLE, "-o", str(table), "-q"]) == 0
-    assert main(["check", str(table), "--cell", TABLE, "-o", str(table_check), "-q"]) == 1
-    cup = [q for q in json.loads(table_check.read_text())["problems"] if q["subject"].startswith("cup × face_")]
-    assert cup and "leaves its plane by 0.6" in cup[0]["detail"], cup
 
     # the dry run: the same program folded at the cell's TCP limit (the default 0.05 m/s folds for 80 s)
     fast, fast_check = tmp_path / "fast.json", tmp_path / "fast_check.json"
