@@ -27,7 +27,7 @@ from shapely.geometry import Polygon
 from shapely.ops import polylabel, unary_union
 
 __all__ = ["GripCandidate", "grip_regions", "grip_candidates", "pad_footprint", "FoldGeometry", "cup_footprint_record",
-           "DEFAULT_LIP_COMPLIANCE"]
+           "cup_fit", "DEFAULT_LIP_COMPLIANCE"]
 
 #: How far (m) the sheet under the cup may leave a plane and still seal (a bellows lip takes ~1 mm).
 DEFAULT_LIP_COMPLIANCE = 0.5e-3
@@ -239,28 +239,41 @@ def pad_footprint(seq, face: int, radius: float, *, lip_compliance: float = DEFA
                          planarity_m=planarity, ok=not problem, problem=problem)
 
 
+def cup_fit(fold_model, cup_radius: float, *, lip_compliance: float = DEFAULT_LIP_COMPLIANCE):
+    """`fit(face) -> GripCandidate`: the cup's disc of `cup_radius` [m] about grip face `face`'s
+    centre, where the planner puts the TCP, on the sheet up to the creases and the outline
+    (`pad_footprint` with `rulings_join`), planar to `lip_compliance` in every fold state of the
+    FOLD model `fold_model`. Each face is measured once; the planner orders its grip candidates by
+    it and the check refuses a grip whose cup does not fit."""
+    seq = FoldGeometry.of_fold(fold_model)
+    seen: dict[int, GripCandidate] = {}
+
+    def fit(face: int) -> GripCandidate:
+        face = int(face)
+        if face not in seen:
+            seen[face] = pad_footprint(seq, face, float(cup_radius), lip_compliance=lip_compliance,
+                                       rulings_join=True, tool="cup")
+        return seen[face]
+
+    return fit
+
+
 def cup_footprint_record(fold_model, holds: dict, cup_radius: float | None, *,
-                         lip_compliance: float = DEFAULT_LIP_COMPLIANCE) -> tuple[dict | None, tuple[str, ...]]:
-    """(record, notes) of the cup's footprint on every face an arm grips in a holds record
-    (`robot.holds_record`), for a rigid program's check: the cup's disc of `cup_radius` [m] (the
-    cell's `tool.cup_radius`; None: no record) about the grip face's centre, where the planner puts
-    the TCP, on the sheet up to the creases and the outline (rulings join: `pad_footprint` with
-    `rulings_join`), planar to `lip_compliance` in every fold state. Measured and reported, not a
-    problem of the check (docs/holds.md says why); the notes say which faces fail and why."""
+                         lip_compliance: float = DEFAULT_LIP_COMPLIANCE) -> dict | None:
+    """The CHECK.json record of the cup's footprint (`cup_fit`) on every face an arm grips in a
+    holds record (`robot.holds_record`): `cup_mm`, `lip_compliance_mm`, and per face `ok`,
+    `room_mm` (the sheet across at the face centre), `planarity_mm`, `problem`. None without a cup
+    (`cup_radius` None) or without a grip."""
     if cup_radius is None:
-        return None, ()
+        return None
     faces = sorted({int(f) for row in holds.get("arms", {}).values() for f in row if f is not None})
     if not faces:
-        return None, ()
-    seq = FoldGeometry.of_fold(fold_model)
-    rows, notes = [], []
+        return None
+    fit = cup_fit(fold_model, cup_radius, lip_compliance=lip_compliance)
+    rows = []
     for f in faces:
-        c = pad_footprint(seq, f, float(cup_radius), lip_compliance=lip_compliance, rulings_join=True, tool="cup")
+        c = fit(f)
         rows.append({"face": f, "ok": bool(c.ok), "room_mm": round(2000 * c.inscribed_m, 3),
                      "planarity_mm": round(1000 * c.planarity_m, 4), "problem": c.problem})
-        if not c.ok:
-            notes.append(f"grip face {f}: {c.problem}; the rigid check reports the cup's "
-                         "footprint and does not refuse on it (no seal or holding force is modelled)")
-    record = {"cup_mm": round(2000 * float(cup_radius), 3), "lip_compliance_mm": lip_compliance * 1000,
-              "enforced": False, "faces": rows}
-    return record, tuple(notes)
+    return {"cup_mm": round(2000 * float(cup_radius), 3), "lip_compliance_mm": lip_compliance * 1000,
+            "enforced": True, "faces": rows}

@@ -5,7 +5,8 @@ clamping the first strip); `approach_variants`: other approach/retract distances
 does not plan or pass at the given one; `grip_variants`: those on the front side, then the back
 side (the cup's approach axis along +normal instead of -normal, its standoff measured behind the
 design surface: a valley folded to 175 deg closes the wing over a cup on the front).
-`plan_panel` tries every face on the front side before any on the back, and with the
+`plan_panel` tries every face on the front side before any on the back (on each side the faces
+that carry the cell's cup first: `cup_order`), and with the
 checker (`sim.grip_search`) takes the first whose program passes the check, so a panel whose front
 grip passes keeps exactly the program it had.
 
@@ -21,7 +22,7 @@ import numpy as np
 
 from fabkit.errors import InputError
 
-__all__ = ["grip_order", "approach_variants", "grip_variants", "plan_panel", "GRIP_SIDES"]
+__all__ = ["grip_order", "cup_order", "approach_variants", "grip_variants", "plan_panel", "GRIP_SIDES"]
 
 #: The sides a cup can grip, in the order they are tried.
 GRIP_SIDES = ("front", "back")
@@ -72,8 +73,17 @@ def grip_order(frames, grip_face: int | None = None) -> list[int]:
     return moving or faces
 
 
+def cup_order(faces, footprint=None) -> list[int]:
+    """`faces` with those whose cup fits (`footprint(face)` None) first, each part in its order;
+    unchanged without `footprint`."""
+    faces = [int(f) for f in faces]
+    if footprint is None:
+        return faces
+    return [f for f in faces if footprint(f) is None] + [f for f in faces if footprint(f) is not None]
+
+
 def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, source: dict | None = None,
-               clamped_faces=(), placement: dict | None = None, accept=None, variants=None):
+               clamped_faces=(), placement: dict | None = None, accept=None, variants=None, footprint=None):
     """Plan for a panel's middle-row frames (`fabkit.frames.FaceFrames`) in `cell` with
     `robot.planner.plan_toolpath`, trying grip faces and `PlanOptions` -> `robot.planner.PlanResult`.
 
@@ -85,11 +95,14 @@ def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, sour
     after `options` (e.g. `robot.grip_choice.grip_variants`), in order; variants gripping another side
     (`grip_side`) are tried after every face on the first side. Raises `InputError` for a grip face not
     in the middle row, `PlanningError` when no face plans (the error of the face that got farthest).
+    `footprint(face) -> problem or None` (the cup on that face: `cup_order`): faces whose cup fits
+    are tried first on each side, the others after them and not sent to `accept` (the check refuses
+    them, naming the cup; when every face that plans is refused, the first is returned as before).
     """
     from robot.planner import PlanningError, PlanOptions, plan_toolpath  # it imports this module
 
     options = options or PlanOptions()
-    order = grip_order(frames, grip_face)
+    order = cup_order(grip_order(frames, grip_face), None if grip_face is not None else footprint)
     tried, refused = [], None
     every = (options, *(variants or ()))
     sides = [[o for o in every if o.grip_side == side] for side in dict.fromkeys(o.grip_side for o in every)]
@@ -101,7 +114,9 @@ def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, sour
         except PlanningError as exc:
             tried.append((face, exc))
             continue
-        problem = accept(res) if accept is not None and grip_face is None else None
+        misfit = footprint(face) if footprint is not None and accept is not None and grip_face is None else None
+        problem = (f"{opt.grip_side} side: the cup: {misfit} (not checked)" if misfit
+                   else accept(res) if accept is not None and grip_face is None else None)
         if problem is None:
             return replace(res, tried=tuple(tried))
         tried.append((face, problem))

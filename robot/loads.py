@@ -70,8 +70,12 @@ def arm_rating(model: str) -> ArmRating:
 
 
 def cup_of_cell(cell, vacuum: float = 60e3, safety: float = 2.5) -> VacuumCup:
-    """The cell's vacuum cup: lip diameter = twice the radius of its `suction_cup` tool shape (the
-    rigid holder stands for the lip), or of the last cylinder of the tool."""
+    """The cell's vacuum cup: lip diameter twice the tool's `cup_radius` (the lip on the panel, what
+    the check's footprint uses) when the cell declares it, else twice the radius of its
+    `suction_cup` tool shape (the rigid holder stands for the lip), or of the last cylinder."""
+    radius = getattr(cell.tool, "cup_radius", None)
+    if radius is not None:
+        return VacuumCup(diameter=2 * float(radius), vacuum=vacuum, safety=safety)
     cyl = [s for s in cell.tool.shapes if s.kind == "cylinder"]
     named = [s for s in cyl if "cup" in s.name]
     shape = (named or cyl or [None])[-1]

@@ -210,7 +210,7 @@ def step_phases(fold_model, frames) -> list[PhaseSpec] | None:
 
 
 def with_regrip(cell, frames, fold_model, *, options, source: dict | None = None, clamped_faces=(), placement: dict | None = None,
-                accept, variants=()):
+                accept, variants=(), footprint=None):
     """`robot.grip_choice.plan_panel` with the checker `accept`, and when no single grip passes
     (none plans, or the checker refuses every one) the regrip programs compared by
     `robot.regrip_choice.pick_alternative`: a regrip per fold step when the FOLD file `fold_model`
@@ -219,7 +219,8 @@ def with_regrip(cell, frames, fold_model, *, options, source: dict | None = None
     back side at the standoff of the back-side variant in `variants`). The least clearance of a
     passing check is read from `accept.clearances` ({toolpath sha256: m}) when the checker keeps
     it. Returns the chosen program, else the single-grip program the check will refuse (its `tried`
-    naming the regrips refused too); raises `PlanningError` when nothing plans."""
+    naming the regrips refused too); raises `PlanningError` when nothing plans. `footprint`: the
+    cup on a face (`robot.grip_choice.cup_order`), faces that carry it first, single grip and regrip."""
     from fabkit.frames import face_frames_of
     from robot.grip_choice import plan_panel
     from robot.planner import PlanningError
@@ -233,11 +234,12 @@ def with_regrip(cell, frames, fold_model, *, options, source: dict | None = None
 
     try:
         single, failure = plan_panel(cell, frames, options=options, source=source, clamped_faces=clamped_faces,
-                                     placement=placement, accept=judged, variants=variants), None
+                                     placement=placement, accept=judged, variants=variants,
+                                     footprint=footprint), None
     except PlanningError as exc:
         single, failure = None, exc
-    if single is not None and verdicts.get(id(single.toolpath)) is None:
-        return single
+    if single is not None and id(single.toolpath) in verdicts and verdicts[id(single.toolpath)] is None:
+        return single   # checked and passed (a face the cup does not fit is refused unchecked)
     alternatives = []
     specs = step_phases(fold_model, frames)
     if specs is not None:        # folded step by step: a regrip per step
@@ -249,7 +251,7 @@ def with_regrip(cell, frames, fold_model, *, options, source: dict | None = None
     middle = {int(f) for f in frames.faces}
     alternatives += same_crease_alternatives(
         cell, lambda f: frames if f in middle else face_frames_of(fold_model, f),
-        regrip_faces(fold_model, clamped_faces), options=options, source=source, clamped_faces=clamped_faces,
+        regrip_faces(fold_model, clamped_faces, footprint=footprint), options=options, source=source, clamped_faces=clamped_faces,
         placement=placement, back_standoff=back.grip_standoff)
     clearances = getattr(accept, "clearances", None)
     best, tried = pick_alternative(alternatives, accept=accept, clearance_of=None if clearances is None else

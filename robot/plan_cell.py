@@ -4,13 +4,14 @@
 clamped face on the cell's clamp (`robot.panel_placement`), records the clamped faces, and plans
 with `robot.grip_choice.plan_panel` for a one-arm cell (PATH.json `fabkit.toolpath/2`; when every
 grip of one side fails, a same-crease regrip in phases, `robot.phased_planner.with_regrip`) or with
-`robot.two_arm_planner.plan_two_arms` for a cell with two arms (`fabkit.toolpath/3`).
+`robot.two_arm_planner.plan_two_arms` for a cell with two arms (`fabkit.toolpath/3`). Rigid
+programs try the grip faces that carry the cell's cup first (`cup_footprint_of`).
 """
 from __future__ import annotations
 
 from fabkit.errors import InputError
 
-__all__ = ["plan_in_cell"]
+__all__ = ["plan_in_cell", "cup_footprint_of"]
 
 
 def plan_in_cell(cell, fold_model, frames, *, grip_face: int | None = None, options=None, source: dict | None = None,
@@ -31,15 +32,17 @@ def plan_in_cell(cell, fold_model, frames, *, grip_face: int | None = None, opti
     placement = placement_for(cell, fold_model)   # the clamped face on the cell's clamp
     placed = placed_cell(cell, placement)
     clamped = clamped_faces_of(fold_model)
+    footprint = None if sheet else cup_footprint_of(cell, fold_model)
     if len(cell.arms) == 1:
         if accept is None or grip_face is not None or sheet or options.grip_side != "front" or not any(
                 v.grip_side == "back" for v in variants):
             return plan_panel(placed, frames, grip_face=grip_face, options=options, source=source,
-                              clamped_faces=clamped, placement=placement, accept=accept, variants=variants)
+                              clamped_faces=clamped, placement=placement, accept=accept, variants=variants,
+                              footprint=footprint)
         from robot.phased_planner import with_regrip
 
         return with_regrip(placed, frames, fold_model, options=options, source=source, clamped_faces=clamped,
-                           placement=placement, accept=accept, variants=variants)
+                           placement=placement, accept=accept, variants=variants, footprint=footprint)
     from robot.two_arm_planner import hold_pairs, plan_two_arms
 
     name = None if fold_file is None else str(fold_file)
@@ -51,4 +54,18 @@ def plan_in_cell(cell, fold_model, frames, *, grip_face: int | None = None, opti
                              source="--grip-face")
         grip_faces = pairs[0]
     return plan_two_arms(placed, fold_model, frames, options=options, source=source, clamped_faces=clamped,
-                         placement=placement, grip_faces=grip_faces, accept=accept, fold_source_name=name)
+                         placement=placement, grip_faces=grip_faces, accept=accept, fold_source_name=name,
+                         footprint=footprint)
+
+
+def cup_footprint_of(cell, fold_model):
+    """`footprint(face) -> problem or None`: the cell's cup (`tool.cup_radius`) on a grip face of
+    `fold_model` (`fabkit.grip_footprint.cup_fit`, measured once per face), what the check
+    (`sim.check_cup`) refuses on; None when the cell declares no cup."""
+    radius = getattr(cell.tool, "cup_radius", None)
+    if radius is None:
+        return None
+    from fabkit.grip_footprint import cup_fit
+
+    fit = cup_fit(fold_model, radius)
+    return lambda face: fit(face).problem or None

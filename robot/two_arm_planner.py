@@ -186,12 +186,13 @@ def _plan_pair(cell, frames, grips: dict, options, source, clamped_faces, placem
 
 def plan_two_arms(cell, fold_model, frames, *, options: PlanOptions = PlanOptions(), source: dict | None = None,
                   clamped_faces=(), placement: dict | None = None, grip_faces=None, accept=None,
-                  fold_source_name: str | None = None) -> ArmsPlanResult:
+                  fold_source_name: str | None = None, footprint=None) -> ArmsPlanResult:
     """The two-arm program (module docstring) for `frames` (`fabkit.frames.FaceFrames`) of
     `fold_model` in `cell` (already placed: `robot.panel_placement`). `grip_faces` (two faces)
     fixes the pair; `accept(result) -> problem or None` (the checker) is asked for each pair that
     plans, and the first it passes wins (else the first that planned). Raises `PlanningError` when
-    no pair of faces holds the panel or none plans, `InputError` when the cell has not two arms."""
+    no pair of faces holds the panel or none plans, `InputError` when the cell has not two arms.
+    `footprint(face) -> problem or None`: the pairs whose two faces carry the cup are tried first."""
     names = arm_names(cell)
     if len(names) != 2:
         raise InputError(f"a two-arm program needs a cell with two arms, {cell.name!r} has {len(names)}",
@@ -200,6 +201,8 @@ def plan_two_arms(cell, fold_model, frames, *, options: PlanOptions = PlanOption
     clamped = tuple(int(f) for f in clamped_faces)
     pairs = [tuple(int(f) for f in grip_faces)] if grip_faces is not None else \
         hold_pairs(fold_model, frames, clamped, source=fold_source_name)
+    if footprint is not None and grip_faces is None:   # stable: pairs where both cups fit first
+        pairs = sorted(pairs, key=lambda p: sum(footprint(f) is not None for f in p))
     if not pairs:
         raise PlanningError(0, "grip", 0, "holds", f"no two middle-row faces hold the panel with the clamped faces "
                             f"{list(clamped)} (every crease must be folded by something held)")

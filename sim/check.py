@@ -266,14 +266,15 @@ def _with_panel_checks(report: CheckReport, tp, prog: Program, cell, model, fold
     problems = tuple(sorted(report.problems + holds.problems + panel.problems + jig_problems +
                             clamp_problems(model, cell, holds.record["clamped_faces"], len(tp)),
                             key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
-    from fabkit.grip_footprint import cup_footprint_record   # reported, not enforced (docs/holds.md)
+    from sim.check_cup import cup_problems
 
-    # a sheet program's pad footprint is checked with its loads (sim.check_loads); a rigid one's is reported
+    # a sheet program's pad footprint is checked with its loads (sim.check_loads); a rigid one's cup here
     cup_radius = None if report.loads is not None else getattr(cell.tool, "cup_radius", None)
-    cup, cup_notes = cup_footprint_record(model, holds.record, cup_radius)
+    cup, cup_found = cup_problems(model, holds.record, lambda arm: cup_radius)
+    problems = tuple(sorted(problems + tuple(cup_found), key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
     record = holds.record if cup is None else {**holds.record, "cup_footprint": cup}
     report = replace(report, problems=problems, ok=not problems, holds=record,
-                     panel_collisions=panel.record, notes=report.notes + holds.notes + cup_notes)
+                     panel_collisions=panel.record, notes=report.notes + holds.notes)
     from sim.check_phases import phases_check
 
     phases, phase_problems = phases_check(tp, report)   # a program in phases: per phase (None: one)

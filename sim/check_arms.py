@@ -156,6 +156,7 @@ def run_arms_check(atp, cell, *, fold=None, use_panel: bool = True, thickness=No
     from robot.arm_cells import arm_cell, arm_names
     from robot.two_arm_planner import lockstep_timing
     from sim.check import CheckSettings, ToolpathCheck, run_toolpath_check
+    from sim.check_cup import cup_problems
     from sim.check_holds import check_holds, clamp_problems
     from sim.check_panel_collisions import check_panel_collisions_of_fold
     from sim.toolpath_program import load_source_fold
@@ -192,6 +193,12 @@ def run_arms_check(atp, cell, *, fold=None, use_panel: bool = True, thickness=No
         problems += list(holds.problems) + list(panel.problems)
         problems += list(clamp_problems(model, pcell, holds.record["clamped_faces"], len(atp)))
         holds_rec, panel_rec = holds.record, panel.record
+        cup, cup_found = cup_problems(model, holds_rec, lambda arm: None if arm not in runs or
+                                      runs[arm].report.loads is not None else  # a sheet's pads: sim.check_loads
+                                      getattr(arm_cell(cell, arm).tool, "cup_radius", None))
+        problems += cup_found
+        if cup is not None:
+            holds_rec = {**holds_rec, "cup_footprint": cup}
         notes += list(holds.notes)
     else:
         notes.append("no panel: the holds and the panel's own collisions were not checked")

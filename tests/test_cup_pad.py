@@ -48,9 +48,20 @@ def _cell(pad_toml: str):
 def test_a_cell_without_a_pad_holds_with_its_suction_cup():
     from robot.cell import load_cell
 
-    for name, d in (("ur5e_bench", 0.05), ("ur10e_fold_table", 0.06)):
-        pad = pad_of_cell(load_cell(CELLS / f"{name}.toml"))
-        assert pad.count == 1 and pad.diameter == pytest.approx(d) and pad.footprint_radius == pytest.approx(d / 2)
+    for name in ("ur5e_bench", "ur10e_fold_table"):
+        cell = load_cell(CELLS / f"{name}.toml")
+        pad = pad_of_cell(cell)
+        assert pad.count == 1 and pad.diameter == pytest.approx(0.05) and pad.footprint_radius == pytest.approx(0.025)
+        assert pad.diameter == pytest.approx(2 * cell.tool.cup_radius)   # one cup: the footprint's and the loads'
+    # the lip the cell declares is the cup, not its holder's collision shape
+    text = (CELLS / "ur5e_bench.toml").read_text().replace("cup_radius = 0.025 ", "cup_radius = 0.035 ")
+    assert "cup_radius = 0.035 " in text
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "cup70.toml"
+        path.write_text(text)
+        assert pad_of_cell(load_cell(path)).diameter == pytest.approx(0.07)
 
 
 def test_cell_pad_table_and_its_mistakes():

@@ -1,6 +1,7 @@
 """The suction cup's footprint on the grip face of a rigid program: measured on the sheet up to the
-creases and outline, planar to the lip compliance in every fold state, and reported in CHECK.json
-(not a problem of the rigid check)."""
+creases and outline, planar to the lip compliance in every fold state, reported in CHECK.json and
+refused by the check (a holds problem naming the face); the planner tries the faces that carry the
+cup first."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -14,7 +15,7 @@ from fabkit.grip_footprint import cup_footprint_record, pad_footprint
 from fabkit.refold import refold
 
 ROOT = Path(__file__).resolve().parent.parent
-CUP = 0.035     # the cells' 70 mm cup
+CUP = 0.035     # a 70 mm cup (the cells' is 50 mm)
 
 
 def _middle(seq):
@@ -48,33 +49,83 @@ def test_the_two_crease_panel_and_the_trifold_carry_the_cup():
             assert c.ok and c.inscribed_m > CUP and 0.1e-3 < c.planarity_m < 0.35e-3, (face, c)
 
 
-def test_the_check_reports_the_cup_on_the_grip_face_and_does_not_refuse_on_it(tmp_path):
+def _cell_with_cup(tmp_path, diameter_mm: float) -> Path:
+    text = (ROOT / "cells" / "ur5e_bench.toml").read_text()
+    assert "cup_radius = 0.025 " in text
+    cell = tmp_path / f"cup_{diameter_mm:g}.toml"
+    cell.write_text(text.replace("cup_radius = 0.025 ", f"cup_radius = {diameter_mm / 2000:g} "))
+    return cell
+
+
+def test_the_check_refuses_a_grip_whose_cup_does_not_fit(tmp_path):
+    import json
+
     import fabkit.pipeline as fk
+    from fabkit.cli import main as fabkit_main
     from fabkit.io.obj import save_obj
     from structure_panels import reflect_tagged
 
     save_obj(reflect_tagged(2, 60.0), tmp_path / "p.obj")
     folds = fk.refold(fk.unfold(fk.relax(fk.load(tmp_path / "p.obj"))), frames=5)
-    text = (ROOT / "cells" / "ur5e_bench.toml").read_text()
-    assert "cup_radius = 0.035" in text
-    small = tmp_path / "small_cup.toml"
-    small.write_text(text.replace("cup_radius = 0.035", "cup_radius = 0.02"))   # a 40 mm cup
-    # the 70 mm lip: the sheet curves away by 0.95 mm; the 40 mm lip lies on the grip face itself
-    # (43.6 mm across), which is planar
-    for cell, fits in ((ROOT / "cells" / "ur5e_bench.toml", False), (small, True)):
-        check = fk.check(fk.plan(folds, str(cell), workdir=tmp_path / cell.stem))
-        assert check.ok, check.problems                           # reported, not enforced
+    # the bench's 50 mm lip crosses the rulings beside the grip face (43.6 mm across) and the sheet
+    # curves away under it by 0.25 mm; under a 70 mm lip by 0.95 mm (the lip takes 0.5)
+    for cell, fits in ((ROOT / "cells" / "ur5e_bench.toml", True), (_cell_with_cup(tmp_path, 70), False)):
+        prog = fk.plan(folds, str(cell), workdir=tmp_path / cell.stem)
+        check = fk.check(prog)
         rec = check.report.holds["cup_footprint"]
-        assert rec["enforced"] is False and rec["cup_mm"] == pytest.approx(70.0 if not fits else 40.0)
-        (row,) = rec["faces"]
-        assert row["ok"] is fits and row["room_mm"] > rec["cup_mm"]
-        assert row["planarity_mm"] == pytest.approx(0.95, abs=0.05) if not fits else row["planarity_mm"] < 1e-6
-        notes = [n for n in check.report.notes if n.startswith(f"grip face {row['face']}:")]
-        assert bool(notes) is not fits
-        if not fits:
-            assert "leaves its plane by 0.95 mm" in notes[0] and "does not refuse on it" in notes[0]
+        assert rec["enforced"] is True and rec["cup_mm"] == pytest.approx(50.0 if fits else 70.0)
+        rows = rec["faces"]
+        assert all(r["ok"] is fits and r["room_mm"] > rec["cup_mm"] for r in rows)
+        cup = [p for p in check.report.problems if p.subject.startswith("cup")]
+        assert check.ok is fits and bool(cup) is not fits, check.problems
+        if fits:
+            assert all(r["planarity_mm"] == pytest.approx(0.254, abs=0.01) for r in rows)
+            continue
+        # every face that plans fails the cup: the first is refused, named, from its first grip
+        (p,) = cup
+        assert p.kind == "holds" and p.subject == f"cup × face_{rows[0]['face']}" and p.waypoint >= 0
+        assert "leaves its plane by 0.9" in p.detail and "the cup cannot hold it" in p.detail, p.detail
+        assert rows[0]["planarity_mm"] == pytest.approx(0.95, abs=0.05)
+        # the CLI: exit 1, the problem in CHECK.json
+        out = tmp_path / "CHECK.json"
+        code = fabkit_main(["check", str(prog.path_file), "--cell", str(cell), "-o", str(out), "--quiet"])
+        assert code == 1
+        data = json.loads(out.read_text())
+        assert any(q["subject"] == p.subject and q["kind"] == "holds" for q in data["problems"])
 
 
 def test_no_cup_in_the_cell_or_no_grip_no_record():
-    assert cup_footprint_record(None, {"arms": {"a": [1, None]}}, None) == (None, ())
-    assert cup_footprint_record(None, {"arms": {"a": [None, None]}}, CUP) == (None, ())
+    assert cup_footprint_record(None, {"arms": {"a": [1, None]}}, None) is None
+    assert cup_footprint_record(None, {"arms": {"a": [None, None]}}, CUP) is None
+
+
+def test_a_regrip_face_too_narrow_for_the_cup_is_tried_last(tmp_path):
+    """The one-crease 175 deg panel: the regrip face that travels farthest is 43.6 mm across with
+    the sheet beside it folded away, so the 50 mm cup does not fit it; the planner's order puts it
+    after the faces that carry the cup (without the cup rule it would be tried first)."""
+    import fabkit.pipeline as fk
+    from fabkit.io.obj import save_obj
+    from robot.cell import load_cell
+    from robot.plan_cell import cup_footprint_of
+    from robot.regrip_choice import regrip_faces
+    from structure_panels import reflect_tagged
+
+    save_obj(reflect_tagged(1, 175.0), tmp_path / "p.obj")
+    folds = fk.refold(fk.unfold(fk.relax(fk.load(tmp_path / "p.obj"))), frames=5)
+    model = folds.model
+    clamped = [int(model.file_data["fabkit:fixed_face"])]
+    footprint = cup_footprint_of(load_cell(ROOT / "cells" / "ur5e_bench.toml"), model)
+    plain_order = regrip_faces(model, clamped)
+    cup_first = regrip_faces(model, clamped, footprint=footprint)
+    misfits = [f for f in plain_order if footprint(f) is not None]
+    assert misfits and plain_order[0] == misfits[0], (plain_order, misfits)
+    assert "does not fit" in footprint(misfits[0]) and "43.6 mm across" in footprint(misfits[0])
+    # the faces that carry the cup first (here a third face that does takes the misfit's place)
+    fits = [footprint(f) is None for f in cup_first]
+    assert fits[0] and cup_first[0] != plain_order[0] and fits == sorted(fits, reverse=True), cup_first
+    assert set(plain_order) - set(misfits) <= set(cup_first)
+    # a cell that declares no cup: no order by it
+    text = (ROOT / "cells" / "ur5e_bench.toml").read_text()
+    line = next(ln for ln in text.splitlines() if ln.startswith("cup_radius"))
+    (tmp_path / "no_cup.toml").write_text(text.replace(line, ""))
+    assert cup_footprint_of(load_cell(tmp_path / "no_cup.toml"), model) is None

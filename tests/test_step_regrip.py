@@ -129,9 +129,9 @@ def test_the_tool_is_excluded_from_the_face_each_phase_holds(stepped):
     if not path.exists():
         assert main(["toolpath", str(fold), "--cell", CELL, "-o", str(path), "-q"]) == 0
     text = Path(CELL).read_text()
-    holder = "pose = [0.0, 0.0, 0.129, 0.0, 0.0, 0.0]\nradius = 0.03\nhalf_length = 0.009"
+    holder = "pose = [0.0, 0.0, 0.129, 0.0, 0.0, 0.0]\nradius = 0.025\nhalf_length = 0.009"
     assert holder in text
-    cell = parse_cell(tomllib.loads(text.replace(holder, "pose = [0.0, 0.0, 0.1355, 0.0, 0.0, 0.0]\nradius = 0.03\n"
+    cell = parse_cell(tomllib.loads(text.replace(holder, "pose = [0.0, 0.0, 0.1355, 0.0, 0.0, 0.0]\nradius = 0.025\n"
                                                          "half_length = 0.0125")), source="long_cup.toml")
     rep = check_toolpath(Toolpath.load(path), cell, fold=fold)
     assert rep.ok, [p.detail for p in rep.problems]

@@ -118,6 +118,25 @@ def test_check_passes_with_both_grips_and_the_clamp(middle):
     assert all(set(s["held_faces"]) == {4, 28, 36} for s in holds["states"])
     # states and the points between them are proven
     assert any(s["state"] % 1 for s in holds["states"])
+    # each arm's cup on its grip face: the tri-fold's strips carry the 50 mm lip
+    cup = holds["cup_footprint"]
+    assert cup["enforced"] and cup["cup_mm"] == pytest.approx(50.0)
+    assert [f["face"] for f in cup["faces"]] == [28, 36] and all(f["ok"] for f in cup["faces"])
+
+
+def test_a_grip_the_cup_does_not_fit_is_refused_naming_the_arm(middle, tmp_path):
+    """The same program in the dual cell with a 150 mm cup: wider than the strips, refused per arm."""
+    from sim.check import check_toolpath
+
+    folder, res, _ = middle
+    text = DUAL.read_text()
+    assert "cup_radius = 0.025 " in text
+    big = tmp_path / "dual_big_cup.toml"
+    big.write_text(text.replace("cup_radius = 0.025 ", "cup_radius = 0.075 "))
+    report = check_toolpath(res.toolpath, load_cell(big), fold=folder / "fold.fold")
+    cup = [p for p in report.problems if p.subject.startswith("cup × face_")]
+    assert not report.ok and {p.subject for p in cup} == {"cup × face_28", "cup × face_36"}, report.problems
+    assert all(p.kind == "holds" and p.detail.startswith("arm ") and "does not fit" in p.detail for p in cup)
 
 
 def test_one_wing_left_free_is_refused(middle):

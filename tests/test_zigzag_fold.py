@@ -53,6 +53,7 @@ def test_a_175_deg_zigzag_is_folded_from_its_valley_end_and_sent(tmp_path):
     rep = json.loads(check.read_text())
     assert rep["ok"] and rep["holds"]["ok"] and all(st["ok"] for st in rep["holds"]["states"])
     assert rep["panel_collisions"]["ok"]
+    assert rep["holds"]["cup_footprint"]["enforced"] and all(f["ok"] for f in rep["holds"]["cup_footprint"]["faces"])
 
     # the dry run: the same program folded at the cell's TCP limit (the default 0.05 m/s folds for 80 s)
     fast, fast_check = tmp_path / "fast.json", tmp_path / "fast_check.json"
