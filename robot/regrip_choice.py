@@ -84,8 +84,9 @@ def regrip_faces(fold_model, clamped_faces, count: int = REGRIP_FACES, min_trave
     first (the most leverage, and on a bent strip the flattest surroundings toward its free end),
     ties by the final centroid's coordinates (never by face or vertex order), each with the holds
     proven (`fabkit.holds`) in every state with the clamped faces and that face held (the first
-    `tested` faces are tried: a panel that one grip cannot hold gets none). With `footprint` the
-    faces whose cup fits come first (`robot.grip_choice.cup_order`)."""
+    `tested` faces are tried: a panel that one grip cannot hold gets none). With `footprint`
+    (`robot.grip_choice.cup_order`) only faces whose cup fits: the check refuses the others, and
+    each regrip alternative costs a plan and a check."""
     from fabkit.frames import face_groups, fold_positions
     from fabkit.hold_model_fold import hold_model_from_fold
     from fabkit.holds import holds_along
@@ -98,9 +99,8 @@ def regrip_faces(fold_model, clamped_faces, count: int = REGRIP_FACES, min_trave
     keys = [(-round(float(t), 9), *np.round(C[-1, i], 9).tolist()) for i, t in enumerate(travel)]
     order = [i for i in sorted(range(len(travel)), key=lambda i: keys[i])
              if travel[i] > min_travel and int(g.ids[i]) not in clamped]
-    if footprint is not None:   # the cup's faces first (robot.grip_choice.cup_order), by index here
-        order = [i for i in order if footprint(int(g.ids[i])) is None] + \
-                [i for i in order if footprint(int(g.ids[i])) is not None]
+    if footprint is not None:   # a regrip on a face the cup does not fit is refused by the check
+        order = [i for i in order if footprint(int(g.ids[i])) is None]
     model, angles = hold_model_from_fold(fold_model)
     if len(P) == len(angles) + 1:        # a flat key frame put first (fabkit.frames.fold_positions)
         angles = np.vstack([np.zeros_like(angles[:1]), angles])
