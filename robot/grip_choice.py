@@ -96,8 +96,9 @@ def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, sour
     (`grip_side`) are tried after every face on the first side. Raises `InputError` for a grip face not
     in the middle row, `PlanningError` when no face plans (the error of the face that got farthest).
     `footprint(face) -> problem or None` (the cup on that face: `cup_order`): faces whose cup fits
-    are tried first on each side, the others after them and not sent to `accept` (the check refuses
-    them, naming the cup; when every face that plans is refused, the first is returned as before).
+    are tried first on each side, the others after them, never sent to `accept` and planned only
+    until one plans when nothing else did (the program returned for the check to refuse, naming the
+    cup).
     """
     from robot.planner import PlanningError, PlanOptions, plan_toolpath  # it imports this module
 
@@ -107,6 +108,10 @@ def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, sour
     every = (options, *(variants or ()))
     sides = [[o for o in every if o.grip_side == side] for side in dict.fromkeys(o.grip_side for o in every)]
     for face, opt in ((f, o) for group in sides for f in order for o in group):  # every face's front first
+        misfit = footprint(face) if footprint is not None and accept is not None and grip_face is None else None
+        if misfit and refused is not None:   # a program to refuse is there already: no plan for this one
+            tried.append((face, f"{opt.grip_side} side: the cup: {misfit} (not planned)"))
+            continue
         try:
             res = plan_toolpath(cell, frames.of_face(face), options=opt,
                                 source={**(source or {}), "grip_face": face}, grip_face=face,
@@ -114,7 +119,6 @@ def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, sour
         except PlanningError as exc:
             tried.append((face, exc))
             continue
-        misfit = footprint(face) if footprint is not None and accept is not None and grip_face is None else None
         problem = (f"{opt.grip_side} side: the cup: {misfit} (not checked)" if misfit
                    else accept(res) if accept is not None and grip_face is None else None)
         if problem is None:
