@@ -17,7 +17,7 @@ import tempfile
 import tomllib
 from pathlib import Path
 
-__all__ = ["program_panel", "carry_over", "clamp_refusal"]
+__all__ = ["program_panel", "carry_over", "clamp_refusal", "cup_refusal"]
 
 
 @functools.lru_cache(maxsize=4)
@@ -62,6 +62,10 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
         if unclampable:  # the check would fail on it whatever the program: not planned
             return {**out, "stage": "check", "reason": f"waypoint 0 holds: {unclampable} (the clamp check, run "
                     "before planning: no program was planned or checked)", "unclampable": unclampable}
+        no_cup = None if sheet is not None else cup_refusal(path, _cell(cell_toml, cell_name), grip_face)
+        if no_cup:  # every face the planner could grip is refused by the check's cup rule: not planned
+            return {**out, "stage": "check", "reason": f"holds: {no_cup} (the cup check, run before planning: "
+                    "no program was planned or checked)"}
         try:  # planned by the plan stage `fabkit toolpath` runs
             program = plan_fold_file(path, cell_file, settings)
         except (InputError, ToleranceError) as exc:  # springback the sheet cannot reach, a crease too tight
@@ -102,6 +106,29 @@ def clamp_refusal(fold_path: Path, cell) -> str | None:
     placed = placed_cell(cell, placement_for(cell, model))
     problems = clamp_problems(model, placed, clamped, 1)
     return problems[0].detail if problems else None
+
+
+def cup_refusal(fold_path: Path, cell, grip_face: int | None = None) -> str | None:
+    """Why no face the planner may grip carries the cell's cup, or None: every middle-row face it
+    tries (`robot.grip_choice.grip_order`, or `grip_face`) fails the cup rule the check applies
+    (`sim.check_cup`, through `robot.plan_cell.cup_footprint_of`), so any one-grip program of this
+    set-up is refused and the plan and check are not paid for."""
+    from fabkit.frames import planning_frames
+    from fabkit.io.fold import load_fold
+    from robot.grip_choice import grip_order
+    from robot.plan_cell import cup_footprint_of
+
+    model = load_fold(fold_path)
+    footprint = cup_footprint_of(cell, model)
+    if footprint is None:
+        return None
+    faces = grip_order(planning_frames(model, grip_face, source=str(fold_path)), grip_face)
+    misfits = [(f, footprint(f)) for f in faces]
+    if any(problem is None for _, problem in misfits):
+        return None
+    f, problem = misfits[0]
+    return (f"no middle-row face carries the {2000 * cell.tool.cup_radius:.0f} mm cup "
+            f"({len(faces)} tried); grip face {f}: {problem}")
 
 
 def carry_over(result: dict, fold_text: str, fold_name: str, note: str) -> dict:

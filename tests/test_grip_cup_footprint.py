@@ -78,6 +78,12 @@ def test_the_check_refuses_a_grip_whose_cup_does_not_fit(tmp_path):
         assert all(r["ok"] is fits and r["room_mm"] > rec["cup_mm"] for r in rows)
         cup = [p for p in check.report.problems if p.subject.startswith("cup")]
         assert check.ok is fits and bool(cup) is not fits, check.problems
+        # the production run's refusal before planning says the same as the full check
+        from robot.cell import load_cell
+        from sim.production import cup_refusal
+
+        before = cup_refusal(folds.save(tmp_path / f"{cell.stem}.fold"), load_cell(cell))
+        assert (before is None) is fits and (fits or "no middle-row face carries the 70 mm cup" in before), before
         if fits:
             assert all(r["planarity_mm"] == pytest.approx(0.254, abs=0.01) for r in rows)
             continue
