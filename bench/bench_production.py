@@ -31,7 +31,7 @@ from pathlib import Path
 from bench.common import report
 
 ROOT = Path(__file__).resolve().parents[1]
-CELL = ROOT / "cells" / "ur5e_bench.toml"
+CELL = ROOT / "cells" / "ur5e_bench_40mm_cup.toml"  # the vault's strips are too narrow for the 50 mm cup
 
 
 def main() -> dict:
