@@ -259,17 +259,17 @@ def cup_fit(fold_model, cup_radius: float, *, lip_compliance: float = DEFAULT_LI
 
 
 def cup_footprint_record(fold_model, holds: dict, cup_radius: float | None, *,
-                         lip_compliance: float = DEFAULT_LIP_COMPLIANCE) -> dict | None:
+                         lip_compliance: float = DEFAULT_LIP_COMPLIANCE, fit=None) -> dict | None:
     """The CHECK.json record of the cup's footprint (`cup_fit`) on every face an arm grips in a
     holds record (`robot.holds_record`): `cup_mm`, `lip_compliance_mm`, and per face `ok`,
     `room_mm` (the sheet across at the face centre), `planarity_mm`, `problem`. None without a cup
-    (`cup_radius` None) or without a grip."""
+    (`cup_radius` None) or without a grip. `fit`: a `cup_fit` of that cup to reuse."""
     if cup_radius is None:
         return None
     faces = sorted({int(f) for row in holds.get("arms", {}).values() for f in row if f is not None})
     if not faces:
         return None
-    fit = cup_fit(fold_model, cup_radius, lip_compliance=lip_compliance)
+    fit = fit or cup_fit(fold_model, cup_radius, lip_compliance=lip_compliance)
     rows = []
     for f in faces:
         c = fit(f)

@@ -263,15 +263,14 @@ def _with_panel_checks(report: CheckReport, tp, prog: Program, cell, model, fold
     holds, jig_holds, jig_problems = extend_holds(holds, model, cell, prog.states)  # jigs, what folds each crease
     panel = check_panel_collisions_of_fold(model, cell, prog.states, holds.record["clamped_faces"],
                                            thickness=thickness, jig_holds=jig_holds)
-    problems = tuple(sorted(report.problems + holds.problems + panel.problems + jig_problems +
-                            clamp_problems(model, cell, holds.record["clamped_faces"], len(tp)),
-                            key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
     from sim.check_cup import cup_problems
 
     # a sheet program's pad footprint is checked with its loads (sim.check_loads); a rigid one's cup here
     cup_radius = None if report.loads is not None else getattr(cell.tool, "cup_radius", None)
     cup, cup_found = cup_problems(model, holds.record, lambda arm: cup_radius)
-    problems = tuple(sorted(problems + tuple(cup_found), key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
+    problems = tuple(sorted(report.problems + holds.problems + panel.problems + jig_problems + tuple(cup_found) +
+                            clamp_problems(model, cell, holds.record["clamped_faces"], len(tp)),
+                            key=lambda p: (p.waypoint, KINDS.index(p.kind), p.subject)))
     record = holds.record if cup is None else {**holds.record, "cup_footprint": cup}
     report = replace(report, problems=problems, ok=not problems, holds=record,
                      panel_collisions=panel.record, notes=report.notes + holds.notes)

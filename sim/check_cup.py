@@ -20,15 +20,17 @@ def cup_problems(fold_model, holds: dict, cup_radius_of) -> tuple[dict | None, l
     (`robot.holds_record`: `arms` {arm: [face or None per waypoint]}); `cup_radius_of(arm)` is that
     arm's cup radius [m] (None: the arm has no cup declared, nothing is checked for it). The record
     holds one entry per arm with a cup (`{arm: record}`) when arms' cups differ, else one record."""
-    from fabkit.grip_footprint import cup_footprint_record
+    from fabkit.grip_footprint import cup_fit, cup_footprint_record
 
     arms = {str(a): list(row) for a, row in holds.get("arms", {}).items()}
     radii = {a: cup_radius_of(a) for a in arms}
-    records, problems = {}, []
+    records, problems, fits = {}, [], {}
     for arm, row in arms.items():
         if radii[arm] is None:
             continue
-        rec = cup_footprint_record(fold_model, {"arms": {arm: row}}, radii[arm])
+        if radii[arm] not in fits:   # arms with the same cup share its measurements
+            fits[radii[arm]] = cup_fit(fold_model, radii[arm])
+        rec = cup_footprint_record(fold_model, {"arms": {arm: row}}, radii[arm], fit=fits[radii[arm]])
         if rec is None:
             continue
         records[arm] = rec

@@ -133,3 +133,25 @@ def test_a_regrip_face_too_narrow_for_the_cup_is_not_tried(tmp_path):
     line = next(ln for ln in text.splitlines() if ln.startswith("cup_radius"))
     (tmp_path / "no_cup.toml").write_text(text.replace(line, ""))
     assert cup_footprint_of(load_cell(tmp_path / "no_cup.toml"), model) is None
+
+
+def test_the_cup_verdict_is_the_same_for_a_plain_shuffled_panel_in_millimetres(tmp_path):
+    """What a designer brings: the same panel as a plain OBJ (no tags), vertex and face order
+    shuffled, in millimetres (`--units mm`: an OBJ declares no unit). The check measures the same
+    sheet under the cup and gives the same verdicts as on fabkit's own tagged panel."""
+    import fabkit.pipeline as fk
+    from structure_panels import plain, reflect_tagged, shuffled
+
+    user, _, _ = shuffled(plain(reflect_tagged(2, 60.0)), seed=5)
+    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in user.vertices * 1000.0]   # as Rhino writes it
+    lines += ["f " + " ".join(str(i + 1) for i in f) for f in user.faces_list()]
+    (tmp_path / "mm.obj").write_text("\n".join(lines) + "\n")
+    folds = fk.refold(fk.unfold(fk.relax(fk.load(tmp_path / "mm.obj", units="mm"))), frames=5)
+    for cell, fits, planarity in ((ROOT / "cells" / "ur5e_bench.toml", True, 0.254),
+                                  (_cell_with_cup(tmp_path, 70), False, 0.95)):
+        check = fk.check(fk.plan(folds, str(cell), workdir=tmp_path / cell.stem))
+        rows = check.report.holds["cup_footprint"]["faces"]
+        assert rows and all(r["ok"] is fits for r in rows), rows
+        assert all(r["planarity_mm"] == pytest.approx(planarity, abs=0.05) for r in rows), rows
+        cup = [p for p in check.report.problems if p.subject.startswith("cup × face_")]
+        assert check.ok is fits and bool(cup) is not fits, check.problems
