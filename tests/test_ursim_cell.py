@@ -92,6 +92,37 @@ def test_watchdog_stops_a_quiet_client(standin, ready):
     _recover(ctrl, recv, standin.host)
 
 
+def _kick_for(ctrl, seconds: float) -> None:
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < seconds:
+        ctrl.kickWatchdog()
+        time.sleep(0.02)
+
+
+def test_watchdog_does_not_blame_the_client_for_a_stand_in_that_fell_behind(standin, ready):
+    """The stand-in's own network thread blocked for 0.7 s (a stand-in starved of CPU) while the
+    client kicks every 20 ms: the kicks wait unread in the socket, and a 4 Hz watchdog keeps the
+    program running. The same stall with a client that stopped kicking stops the program."""
+    ctrl, recv = ready
+    assert ctrl.setWatchdog(4.0)  # at least every 0.25 s
+    _kick_for(ctrl, 0.2)
+    assert standin.admin("io_stall 0.7")["ok"]
+    _kick_for(ctrl, 1.2)
+    assert recv.getRuntimeState() == 2, standin.state()["last_error"]
+    assert any("stalls for 0.7 s" in line for line in standin.state()["log_tail"])
+    _kick_for(ctrl, 0.2)
+    assert standin.admin("io_stall 0.7")["ok"]
+    time.sleep(1.0)  # quiet through the stall: nothing waits unread, the watchdog stops it on time
+    assert _wait(lambda: recv.getRuntimeState() == 1)
+    assert "RTDE watchdog: input_int_register_0 not updated for 0.2" in standin.state()["last_error"]
+    _recover(ctrl, recv, standin.host)
+
+
+def test_io_stall_is_bounded(standin):
+    assert standin.admin("io_stall 6")["error"] == "io_stall: at most 5 s"
+    assert standin.admin("io_stall 0")["ok"] is False
+
+
 @pytest.mark.parametrize("args, message", [
     (["--host", "10.0.0.5"], "--host: the stand-in listens on loopback addresses only"),
     (["--host", "localhost-ish"], "--host: not an IP address"),

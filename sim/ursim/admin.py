@@ -14,6 +14,8 @@ Not part of a real controller. One command per line, one JSON reply per line:
     at_progress N KIND [ARG]     run fault KIND when the async progress register reaches N
     after SECONDS KIND [ARG]     run fault KIND after SECONDS
     digital_in N 0|1             set standard digital input N (0-7), as a wire into the controller would
+    io_stall SECONDS             block the stand-in's own network thread for SECONDS (at most 5): the
+                                 stand-in starved of CPU, to test that its client is not blamed
     record [clear]               the motion and tool commands received so far (see
                                  `Controller.record`), or forget them
     shutdown                     stop the stand-in
@@ -38,6 +40,8 @@ _TEXT_ARG = ("protective_stop", "estop")
 _NO_ARG = ("estop_release", "program_stop", "drop_rtde", "normal")
 #: Longest stall or reply delay the admin channel accepts (s).
 MAX_DELAY_S = 3600.0
+#: Longest `io_stall` (s): the stand-in's own network thread blocked, to test it is not blamed on the client.
+MAX_IO_STALL_S = 5.0
 
 
 def _seconds(text: str, what: str, allow_zero: bool = True) -> float:
@@ -140,7 +144,9 @@ def make_fault(kind: str, arg: str | None, at_progress: str | None = None, after
     return fault
 
 
-def handle(ctrl, line: str, shutdown) -> dict:
+def handle(ctrl, line: str, shutdown, stall_io=None) -> dict:
+    """One admin command -> its JSON reply. `stall_io(seconds)` blocks the stand-in's network thread
+    (the `io_stall` command: the stand-in starved of CPU, not a controller fault)."""
     words = line.split()
     if not words:
         return {"ok": False, "error": "empty command"}
@@ -177,6 +183,15 @@ def handle(ctrl, line: str, shutdown) -> dict:
         if cmd == "slow":
             apply_fault(ctrl, "slow", ",".join(rest) or None)
             return {"ok": True}
+        if cmd == "io_stall" and stall_io is not None:
+            if len(rest) != 1:
+                raise ValueError("usage: io_stall SECONDS")
+            seconds = _seconds(rest[0], "io_stall", allow_zero=False)
+            if seconds > MAX_IO_STALL_S:
+                raise ValueError(f"io_stall: at most {MAX_IO_STALL_S:g} s")
+            ctrl.log(f"injected: the stand-in's network thread stalls for {seconds:g} s")
+            stall_io(seconds)
+            return {"ok": True}
         apply_fault(ctrl, cmd, " ".join(rest) or None)
         return {"ok": True}
     except ValueError as exc:
@@ -185,7 +200,11 @@ def handle(ctrl, line: str, shutdown) -> dict:
 
 def serve_admin(ctrl, loop, listener: socket.socket, shutdown) -> None:
     """Answer admin commands, one JSON reply per line (from the I/O loop `loop`)."""
-    serve_lines(ctrl, loop, listener, "admin", lambda text: (json.dumps(handle(ctrl, text, shutdown)), False),
+    def stall_io(seconds: float) -> None:  # after this reply has gone out
+        loop.call_later(0.0, lambda: time.sleep(seconds))
+
+    serve_lines(ctrl, loop, listener, "admin",
+                lambda text: (json.dumps(handle(ctrl, text, shutdown, stall_io)), False),
                 too_long=lambda head: json.dumps({"ok": False, "error": f"line over {MAX_LINE} bytes"}))
 
 

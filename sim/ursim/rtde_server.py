@@ -16,9 +16,12 @@ connection.
 """
 from __future__ import annotations
 
+import array
+import fcntl
 import itertools
 import socket
 import struct
+import termios
 import threading
 import time
 from dataclasses import dataclass
@@ -80,6 +83,7 @@ class RTDEConnection:
         self.reader = FrameReader()
         self.loop = None  # the I/O loop serving this connection (set on open)
         self._reply_due = 0.0
+        self._handling = False  # the I/O loop is handling bytes it has read from this client
 
     # ---- sending -------------------------------------------------------------------------------
     def _send(self, data: bytes) -> None:
@@ -138,6 +142,7 @@ class RTDEConnection:
             self.ctrl.rtde_conns.append(self)
 
     def on_data(self, conn, data: bytes) -> None:
+        self._handling = True
         try:
             for kind, payload in self.reader.feed(data):
                 self._handle(kind, payload)
@@ -145,6 +150,23 @@ class RTDEConnection:
             self.ctrl.log(f"rtde client {self.id}: {type(exc).__name__}: {exc}")
             self.close()
             conn.loop.close(conn)
+        finally:
+            self._handling = False
+
+    def input_waiting(self) -> bool:
+        """Has this client sent bytes the stand-in has not acted on yet (in the kernel's receive
+        queue, a partial frame, or a frame being handled)? Then the client is not quiet: the
+        stand-in's own network thread is behind, which a controller's never is."""
+        if self.closed:
+            return False
+        if self._handling or self.reader.pending():
+            return True
+        try:
+            waiting = array.array("i", [0])
+            fcntl.ioctl(self.sock.fileno(), termios.FIONREAD, waiting)
+            return waiting[0] > 0
+        except (OSError, ValueError):
+            return False
 
     def on_close(self, conn) -> None:
         self.close()

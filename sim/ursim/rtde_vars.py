@@ -150,3 +150,7 @@ class FrameReader:
             out.append((kind, bytes(self._buf[3:size])))
             del self._buf[:size]
         return out
+
+    def pending(self) -> int:
+        """Bytes of a package not yet complete."""
+        return len(self._buf)
