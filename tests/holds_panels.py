@@ -18,12 +18,13 @@ def trifold_pair():
     from fabkit.cli import main
     from fabkit.io.obj import load_obj
 
-    d = Path(tempfile.mkdtemp(prefix="fabkit_holds_"))
-    src, relaxed, flat = d / "tri.obj", d / "relaxed.obj", d / "flat.obj"
-    assert main(["generate", "trifold", "-o", str(src), "-q"]) == 0
-    assert main(["relax", str(src), "-o", str(relaxed), "-q"]) == 0
-    assert main(["unfold", str(relaxed), "-o", str(flat), "-q"]) == 0
-    return load_obj(flat), load_obj(relaxed)
+    with tempfile.TemporaryDirectory(prefix="fabkit_holds_") as tmp:
+        d = Path(tmp)
+        src, relaxed, flat = d / "tri.obj", d / "relaxed.obj", d / "flat.obj"
+        assert main(["generate", "trifold", "-o", str(src), "-q"]) == 0
+        assert main(["relax", str(src), "-o", str(relaxed), "-q"]) == 0
+        assert main(["unfold", str(relaxed), "-o", str(flat), "-q"]) == 0
+        return load_obj(flat), load_obj(relaxed)
 
 
 @functools.lru_cache(maxsize=None)
