@@ -235,8 +235,10 @@ class Program:
     written), the `cell` (`robot.cell.Cell`) and `cell_file`, the planner's `plan`
     (`robot.planner.PlanResult`), how the FOLD file was read (`loaded`), `notes` (the stage's notes,
     besides the loader's in `loaded.notes`), `records` (the problems as the report writes them: the planner's
-    CHECK.json-style problem, or the exceeded fold loads) and, for a sheet, `loads`
-    (`robot.loads.LoadReport`)."""
+    CHECK.json-style problem, or the exceeded fold loads), for a sheet, `loads`
+    (`robot.loads.LoadReport`), and `refused_by_check`: when the planner's check refused every grip
+    candidate, the problem of the program kept (the first that planned; still `ok`, written so
+    that `fabkit check` can show it, and refused by that check), else None."""
 
     toolpath: Toolpath | None
     workdir: Path
@@ -252,6 +254,16 @@ class Program:
     notes: tuple[str, ...] = ()
     records: tuple = ()
     loads: LoadReport | None = None
+    refused_by_check: str | None = None
+
+    @property
+    def refusal_line(self) -> str | None:
+        """One line saying that the planner's check refused every grip candidate, or None."""
+        if self.refused_by_check is None:
+            return None
+        faces = list(dict.fromkeys(str(f) for f, _ in self.plan.tried))
+        return (f"the check refuses every grip candidate that planned (tried {', '.join(faces)}); the program "
+                f"kept is grip {self.plan.grip_face}'s, refused for: {self.refused_by_check}")
 
     def urscript(self, progress_register: int | None = None) -> str:
         """The URScript program (`fabkit toolpath --script`) of this toolpath."""
@@ -288,7 +300,9 @@ class Program:
         """The report `fabkit toolpath --report` writes, naming `output` (the PATH.json written)
         and `script` (the URScript file, or None)."""
         out = {"command": "toolpath", "input": str(self.fold_file), "cell": self.cell.name,
-               "robot": self.cell.model.name, **self.details, "ok": self.ok}
+               "robot": self.cell.model.name, **self.details, "ok": self.ok and self.refused_by_check is None}
+        if self.refused_by_check is not None:
+            out["refused_by_check"] = self.refused_by_check
         if self.plan is not None:
             out.update({"output": None if output is None else str(output),
                         "script": None if script is None else (str(script) if isinstance(script, (str, Path))

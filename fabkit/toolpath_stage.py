@@ -231,4 +231,4 @@ def plan_fold_file(fold_file: str | os.PathLike, cell_file: str | os.PathLike,
             return Program(toolpath=None, path_file=None, plan=None, ok=False, problems=tuple(loads.failure_lines()),
                            records=tuple(loads.summary()["problems"]), notes=tuple(notes), loads=loads, **common)
     return Program(toolpath=tp, path_file=None, plan=res, ok=True, problems=(), notes=tuple(notes), loads=loads,
-                   **common)
+                   refused_by_check=getattr(res, "refusal", None), **common)

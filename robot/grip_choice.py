@@ -91,7 +91,7 @@ def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, sour
     strip) are tried from the largest motion down (`grip_order`) and the first that plans is used,
     or with `accept(PlanResult) -> problem or None` (the checker: `sim.grip_search`) the first that
     plans and that `accept` passes; when `accept` refuses every face that plans, the first of them
-    is returned (its check will say why). `variants`: further `PlanOptions` tried for each face
+    is returned (its check will say why), with `refusal` its problem. `variants`: further `PlanOptions` tried for each face
     after `options` (e.g. `robot.grip_choice.grip_variants`), in order; variants gripping another side
     (`grip_side`) are tried after every face on the first side. Raises `InputError` for a grip face not
     in the middle row, `PlanningError` when no face plans (the error of the face that got farthest).
@@ -104,7 +104,7 @@ def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, sour
 
     options = options or PlanOptions()
     order = cup_order(grip_order(frames, grip_face), None if grip_face is not None else footprint)
-    tried, refused = [], None
+    tried, refused, refusal = [], None, None
     every = (options, *(variants or ()))
     sides = [[o for o in every if o.grip_side == side] for side in dict.fromkeys(o.grip_side for o in every)]
     for face, opt in ((f, o) for group in sides for f in order for o in group):  # every face's front first
@@ -124,9 +124,10 @@ def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, sour
         if problem is None:
             return replace(res, tried=tuple(tried))
         tried.append((face, problem))
-        refused = refused or res
+        if refused is None:
+            refused, refusal = res, problem
     if refused is not None:
-        return replace(refused, tried=tuple(tried))
+        return replace(refused, tried=tuple(tried), refusal=refusal)
     tried = [(f, e) for f, e in tried if isinstance(e, PlanningError)]
     first = max(tried, key=lambda fe: fe[1].waypoint)[1] if len(tried) > 1 else tried[0][1]
     if len(tried) > 1:

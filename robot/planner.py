@@ -242,6 +242,7 @@ class PlanResult:
     min_singularity: dict          # smallest |factor| over the waypoints
     cycle_time: float              # s
     tried: tuple = ()              # (face, problem) of grip faces that did not work
+    refusal: str | None = None     # the checker refused every candidate: this one's problem (None: passed or unchecked)
 
 
 def plan_toolpath(cell: Cell, face_frames: np.ndarray, *, options: PlanOptions = PlanOptions(),

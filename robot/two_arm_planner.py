@@ -49,7 +49,8 @@ class ArmsPlanResult:
     """A planned two-arm program: `toolpath` (`ArmsToolpath`), `grips` {arm: face}, and what the
     planner measured (as `robot.planner.PlanResult`: `grip_face` the faces in arm order, `branch`
     per arm, the largest fold joint step, joint speed ratio, singularity factors over both arms;
-    `cycle_time` the lockstep program's duration), `tried` (faces, problem) of pairs that failed."""
+    `cycle_time` the lockstep program's duration), `tried` (faces, problem) of pairs that failed,
+    `refusal` the checker's problem when it refused every pair (this is the first that planned)."""
 
     toolpath: ArmsToolpath
     grips: dict
@@ -61,6 +62,7 @@ class ArmsPlanResult:
     cycle_time: float
     per_arm: dict
     tried: tuple = ()
+    refusal: str | None = None
 
 
 def hold_pairs(fold_model, frames, clamped_faces, source: str | None = None) -> list[tuple[int, int]]:
@@ -206,7 +208,7 @@ def plan_two_arms(cell, fold_model, frames, *, options: PlanOptions = PlanOption
     if not pairs:
         raise PlanningError(0, "grip", 0, "holds", f"no two middle-row faces hold the panel with the clamped faces "
                             f"{list(clamped)} (every crease must be folded by something held)")
-    tried, refused, errors = [], None, []
+    tried, refused, refusal, errors = [], None, None, []
     for pair in pairs:
         for grips in _assignments(cell, frames, pair):
             try:
@@ -220,10 +222,11 @@ def plan_two_arms(cell, fold_model, frames, *, options: PlanOptions = PlanOption
             if problem is None:
                 return out
             tried.append((tuple(grips.values()), problem))
-            refused = refused or out
+            if refused is None:
+                refused, refusal = out, problem
             break
     if refused is not None:
-        return replace(refused, tried=tuple(tried))
+        return replace(refused, tried=tuple(tried), refusal=refusal)
     first = max(errors, key=lambda e: e.waypoint)
     raise PlanningError(first.waypoint, first.op, first.state, first.kind,
                         f"{first.detail} (no pair of faces plans for both arms: tried {[p for p, _ in tried]})")

@@ -57,7 +57,7 @@ def _cell_with_cup(tmp_path, diameter_mm: float) -> Path:
     return cell
 
 
-def test_the_check_refuses_a_grip_whose_cup_does_not_fit(tmp_path):
+def test_the_check_refuses_a_grip_whose_cup_does_not_fit(tmp_path, capsys):
     import json
 
     import fabkit.pipeline as fk
@@ -71,6 +71,9 @@ def test_the_check_refuses_a_grip_whose_cup_does_not_fit(tmp_path):
     # curves away under it by 0.25 mm; under a 70 mm lip by 0.95 mm (the lip takes 0.5)
     for cell, fits in ((ROOT / "cells" / "ur5e_bench.toml", True), (_cell_with_cup(tmp_path, 70), False)):
         prog = fk.plan(folds, str(cell), workdir=tmp_path / cell.stem)
+        # the planner says so itself when it kept a program its check refuses
+        assert (prog.refused_by_check is None) is fits, prog.refused_by_check
+        assert fits or "leaves its plane by 0.9" in prog.refused_by_check
         check = fk.check(prog)
         rec = check.report.holds["cup_footprint"]
         assert rec["enforced"] is True and rec["cup_mm"] == pytest.approx(50.0 if fits else 70.0)
@@ -98,6 +101,16 @@ def test_the_check_refuses_a_grip_whose_cup_does_not_fit(tmp_path):
         assert code == 1
         data = json.loads(out.read_text())
         assert any(q["subject"] == p.subject and q["kind"] == "holds" for q in data["problems"])
+        # `fabkit toolpath` exits 1 naming the refusal; PATH.json is kept for the check, no URScript
+        path, script, report = tmp_path / "t.json", tmp_path / "t.script", tmp_path / "t.report.json"
+        argv = ["toolpath", str(prog.fold_file), "--cell", str(cell), "-o", str(path), "--script", str(script),
+                "--report", str(report), "--quiet"]
+        assert fabkit_main(argv) == 1
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "FAILED: the check refuses every grip candidate that planned" in err, err
+        assert path.exists() and not script.exists()
+        rep = json.loads(report.read_text())
+        assert rep["ok"] is False and "leaves its plane by 0.9" in rep["refused_by_check"]
 
 
 def test_no_cup_in_the_cell_or_no_grip_no_record():

@@ -103,5 +103,8 @@ def test_the_grip_side_setting_chooses_the_side_for_cli_and_api(tmp_path):
     out = tmp_path / "path.json"
     from fabkit.cli import main
 
-    assert main(["toolpath", str(fold), "--cell", str(CELL), "-o", str(out), "--grip-side", "back", "-q"]) == 0
+    # the back grip of this grid meets the arm: the check refuses it, the CLI exits 1 and keeps the
+    # program for `fabkit check`, the same the API returns
+    assert "collision" in back.refused_by_check
+    assert main(["toolpath", str(fold), "--cell", str(CELL), "-o", str(out), "--grip-side", "back", "-q"]) == 1
     assert json.loads(out.read_text())["sha256"] == back.toolpath.sha256

@@ -289,8 +289,10 @@ def seq_file(tmp_path_factory):
 
 def test_cli_writes_path_script_and_report(seq_file, tmp_path, capsys):
     out, script, report = tmp_path / "p.json", tmp_path / "f.script", tmp_path / "r.json"
+    # the grip face given: no candidate is checked (the grid's programs leave a crease free, so the
+    # check would refuse every one: `test_cli_exits_1_when_the_check_refuses_every_candidate`)
     rc = fabkit_main(["toolpath", str(seq_file), "--cell", str(CELL_FILES[1]), "-o", str(out),
-                      "--script", str(script), "--report", str(report)])
+                      "--script", str(script), "--report", str(report), "--grip-face", "6"])
     assert rc == 0, capsys.readouterr()
     tp = Toolpath.load(out)
     r = json.loads(report.read_text())
@@ -301,6 +303,27 @@ def test_cli_writes_path_script_and_report(seq_file, tmp_path, capsys):
     assert text.splitlines()[2] == f"  # toolpath sha256: {tp.sha256}"
     assert "set_standard_digital_out(1, True)" in text  # the ur10e cell's gripper output
     assert "grip face" in capsys.readouterr().out
+
+
+def test_cli_exits_1_when_the_check_refuses_every_candidate(seq_file, tmp_path, capsys):
+    """Every candidate that plans leaves a crease of the grid folded by nothing held: PATH.json is the first that
+    planned, kept for `fabkit check`, no URScript, the report not ok, exit 1 with one line."""
+    out, script, report = tmp_path / "p.json", tmp_path / "f.script", tmp_path / "r.json"
+    rc = fabkit_main(["toolpath", str(seq_file), "--cell", str(CELL_FILES[1]), "-o", str(out),
+                      "--script", str(script), "--report", str(report)])
+    cap = capsys.readouterr()
+    assert rc == 1 and cap.err.count("\n") == 1, cap
+    assert "FAILED: the check refuses every grip candidate that planned (tried 6, 8)" in cap.err
+    assert "holds: fold states 0-5" in cap.err and "is folded by nothing held" in cap.err
+    assert "no URScript" in cap.err
+    assert out.exists() and not script.exists()
+    r = json.loads(report.read_text())
+    assert r["ok"] is False and "is folded by nothing held" in r["refused_by_check"]
+    assert r["toolpath_sha256"] == Toolpath.load(out).sha256
+    check = tmp_path / "CHECK.json"
+    assert fabkit_main(["check", str(out), "--cell", str(CELL_FILES[1]), "--fold", str(seq_file), "-o", str(check),
+                        "-q"]) == 1
+    assert json.loads(check.read_text())["problems"][0]["kind"] == "holds"
 
 
 def test_cli_unreachable_exits_1_and_writes_nothing(seq_file, tmp_path, capsys):
@@ -347,7 +370,9 @@ def test_cli_untagged_file_grips_an_inferred_middle_row_face(tmp_path, capsys):
     save_fold(untagged, seq)
     out = tmp_path / "p.json"
     rc = fabkit_main(["toolpath", str(seq), "--cell", str(CELL_FILES[0]), "-o", str(out), "-q"])
-    assert rc == 0 and Toolpath.load(out).source["grip_face"] in (6, 8)   # the middle column's moving faces
+    # the middle column's moving faces; the grid is not held by one grip, so the check refuses it (exit 1)
+    assert rc == 1 and Toolpath.load(out).source["grip_face"] in (6, 8)
+    assert "FAILED: the check refuses every grip candidate" in capsys.readouterr().err
     rc = fabkit_main(["toolpath", str(seq), "--cell", str(CELL_FILES[0]), "-o", str(out), "--grip-face", "8", "-q"])
     assert rc == 0 and Toolpath.load(out).source["grip_face"] == 8
     out.unlink()

@@ -120,6 +120,12 @@ def run(args) -> int:
         write_report(args, program.report())
         return 1
     tp, cell, res = program.toolpath, program.cell, program.plan
+    if program.refused_by_check is not None:  # kept for `fabkit check` and renders; no URScript for the pendant
+        tp.save(args.output)
+        write_report(args, program.report(args.output))
+        print(f"fabkit toolpath: FAILED: {program.refusal_line}; {args.output} is written for `fabkit check` to "
+              f"show{', no URScript' if args.script else ''}", file=sys.stderr)
+        return 1
     scripts = program.urscripts(args.script, args.progress_register, args.handshake_timeout) if args.script else {}
     clash = next((p for p in scripts if args.output and Path(args.output).resolve() == p.resolve()), None)
     if clash is not None:
