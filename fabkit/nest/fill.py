@@ -89,8 +89,9 @@ X_BATCH = 16
 
 
 class _Sheet:
-    """The placed parts of one sheet: their outlines grown by the gap (coarse, for the drop) and as
-    shapely polygons (for the check and the free room)."""
+    """The placed parts of one sheet: their outlines grown by the gap (coarse, for the drop; also
+    padded into arrays of edges with their extremes at their own vertices, rebuilt when a part is
+    added) and as shapely polygons (for the check and the free room)."""
 
     def __init__(self, geoms: list[Polygon], options: NestOptions):
         self.options = options
@@ -134,8 +135,8 @@ class _Sheet:
         """Per x in `xs`: the lowest y in [lo, hi] at which outline `P` (lower left at the origin),
         moved by x, is clear of every grown part; NaN when there is none.
 
-        Per grown part near it, the heights it forbids are one interval, from the least shift
-        putting the part below it to the least putting it above (`rows._shift_past` in x and y
+        Per grown part near it, the heights it forbids are one interval, from the greatest y
+        keeping the part below it to the least putting it above (`rows._shift_past` in x and y
         swapped: the largest difference of the two outlines at their vertices' x), found for every
         (x, part) pair at once."""
         b = self.bx
