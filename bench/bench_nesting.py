@@ -25,6 +25,10 @@ its ends, one part's shear), shared here by the copies that fill a sheet's lengt
 estimate of what any nesting in rows needs, not a proof. "sheets by length" is the sheets used, the
 last counted by its used length.
 
+The row nesting's time is also split: its first shelf packing (`rows._pack` as `nest_rows` calls it,
+the baseline in the same run) and its hole filling (`fill.fill_holes`), each wall and CPU seconds of this process (the machine
+is shared, so CPU time is the steadier number), and the filling's ratio to the packing.
+
 FABKIT_BENCH_NEST_SECONDS sets sparrow's time limit per strip solve (default 10, as in the production
 bench); FABKIT_BENCH_NEST_SPARROW=0 leaves sparrow out (while trying things; the reported numbers
 include it). FABKIT_BENCH_NEST_PARTS=FILE keeps the part outlines (JSON) in FILE between runs.
@@ -36,6 +40,7 @@ import math
 import os
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -89,6 +94,27 @@ def _bounds(parts, gap: float, edge: float) -> dict:
             "sheets for 75 %": area / (0.75 * W * H)}
 
 
+@contextmanager
+def _timed(module, name: str, spent: dict):
+    """`module.name` timed while inside: spent[name] = [wall s, CPU s] summed over its calls."""
+    fn = getattr(module, name)
+    spent[name] = [0.0, 0.0]
+
+    def timed(*args, **kw):
+        t0, c0 = time.perf_counter(), time.process_time()
+        try:
+            return fn(*args, **kw)
+        finally:
+            spent[name][0] += time.perf_counter() - t0
+            spent[name][1] += time.process_time() - c0
+
+    setattr(module, name, timed)
+    try:
+        yield spent
+    finally:
+        setattr(module, name, fn)
+
+
 def _settings():
     """(label, NestOptions keywords): the default distances (1 mm sheet, laser cut, sourced:
     `fabkit.nest.spacing`) and the 10 mm spacing and edge used before, so neither is read alone."""
@@ -104,6 +130,9 @@ def main() -> dict:
     from shapely.geometry import Polygon
 
     from fabkit.nest import NestOptions, nest_parts
+    from fabkit.nest import fill as fill_module
+    from fabkit.nest import last_sheet  # noqa: F401  (imported before `_timed`: it keeps its own `_pack`)
+    from fabkit.nest import rows as rows_module
     from fabkit.nest.engines import place
 
     limit = float(os.environ.get("FABKIT_BENCH_NEST_SECONDS", 10))
@@ -122,10 +151,15 @@ def main() -> dict:
         nests = {}
         for engine in engines:
             opts = NestOptions(sheet=SHEET, engine=engine, time_limit=limit, **dist)
-            nests[engine] = n = nest_parts(parts, opts)
+            spent: dict = {}
+            c0 = time.process_time()
+            with _timed(rows_module, "_pack", spent), _timed(fill_module, "fill_holes", spent):
+                nests[engine] = n = nest_parts(parts, opts)
+            cpu = time.process_time() - c0
             again = nest_parts(parts, opts) if engine != "packingsolver" else None
             rows.append({"case": f"nesting {engine}" + (f" ({limit:g} s per strip solve)" if engine == "packingsolver" else ""),
                          "distances": label, "parts": len(parts), "sheets": n.n_sheets, "seconds": n.seconds,
+                         "CPU s (this process)": cpu,
                          "utilisation (whole sheets)": n.utilisation,
                          "utilisation (last sheet by length)": n.used_length_utilisation(parts),
                          "sheets by length": n.n_sheets - 1 + min(1.0, (max(place(parts[p.part], p).bounds[2] for p in
@@ -135,6 +169,10 @@ def main() -> dict:
                          "verified (each once, inside, gap)": not n.verify(parts),
                          "same placements on a rerun": "not deterministic (time-limited)" if again is None
                          else again.placements == n.placements, "target": 0.75})
+            if engine == "rows":
+                (pack_s, pack_cpu), (fill_s, fill_cpu) = spent["_pack"], spent["fill_holes"]
+                rows[-1].update({"shelf packing s": pack_s, "shelf packing CPU s": pack_cpu, "hole filling s": fill_s,
+                                 "hole filling CPU s": fill_cpu, "hole filling / shelf packing (CPU)": fill_cpu / pack_cpu})
         gap = dist["spacing"] + dist["kerf"]
         bounds = _bounds(parts, gap, dist["edge"])
         print(f"   {label}, gap {gap:g} mm:")

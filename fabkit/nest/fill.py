@@ -16,9 +16,17 @@ the lowest height outside them all. A part's interval is that of its whole outli
 for convex outlines), so the search never accepts a spot that is too close, but it does not find a
 hole inside one concave part's bay; every move is checked again with shapely, and the whole
 nesting verified (`Nesting.verify`). A part that found no spot on a sheet is not tried there again
-for a copy of it (same area and perimeter) until the sheet changes. Written here because no well-kept library places
-polygons into the holes of an existing layout (sparrow, `engine="packingsolver"`, nests from
-scratch).
+for a copy of it (same area and perimeter) until the sheet changes.
+
+Speed: the outlines have ~15-30 vertices, so part by part the search spends its time in numpy's
+per-call cost. The intervals of a batch of `X_BATCH` x positions against every part near each are
+found in one go (`_Sheet.drops`, the same arithmetic as `rows._outline_x_at`, so the same numbers
+bit for bit), each placed part's outline at its own vertices kept until the sheet changes; and a
+piece's scan stops once no spot left in it can be lower, or as low and further left, than the best
+found (its spots are no lower than its floor and no further left than its next x). Measured on the
+pleated vault's 494 parts: the same placements, the filling 8-10x faster in CPU time than part by
+part. Written here because no well-kept library places polygons into the holes of an existing
+layout (sparrow, `engine="packingsolver"`, nests from scratch).
 """
 from __future__ import annotations
 
@@ -46,9 +54,44 @@ def _turns(part: Polygon, grain) -> list[float]:
     return R._distinct([a % 360.0 for a in base] + [(a + 90.0) % 360.0 for a in base])
 
 
+def _edges(V: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The edges of closed outlines, one a row (values `V`, heights `H`, each (rows, vertices)), as
+    (low, high, start height, height step, start value, value step), each (rows, edges). An edge
+    along a height (no height step) becomes a point at its start vertex; its end vertex is the next
+    edge's start, so every outline's extremes keep every vertex value at its height."""
+    y0, y1 = H[:, :-1], H[:, 1:]
+    flat = y0 == y1
+    return (np.minimum(y0, y1), np.maximum(y0, y1), y0, np.where(flat, 1.0, y1 - y0), V[:, :-1],
+            np.where(flat, 0.0, V[:, 1:] - V[:, :-1]))
+
+
+def _extremes(Y: np.ndarray, E: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Greatest and least value of each row's outline (`_edges`) at each of its heights `Y` (rows,
+    heights): -inf and inf where it has none. The same arithmetic as `rows._outline_x_at`, so the
+    same numbers, for many outlines at once."""
+    lo, hi, y0, dy, v0, dv = (e[:, None, :] for e in E)
+    Yb = Y[:, :, None]
+    cross = (Yb >= lo) & (Yb <= hi)
+    v = v0 + ((Yb - y0) / dy) * dv
+    return np.where(cross, v, -np.inf).max(axis=2), np.where(cross, v, np.inf).min(axis=2)
+
+
+def _padded(outlines: list[np.ndarray]) -> np.ndarray:
+    """The outlines as one (outlines, most vertices, 2) array, each padded with its closing vertex
+    (a repeated vertex adds no edge and no height)."""
+    n = max(len(G) for G in outlines)
+    return np.stack([np.vstack([G, np.repeat(G[-1:], n - len(G), axis=0)]) for G in outlines])
+
+
+#: x positions searched at once (`_Sheet.drops`): enough to share numpy's per-call cost, few
+#: enough that a spot found early leaves little searched in vain
+X_BATCH = 16
+
+
 class _Sheet:
-    """The placed parts of one sheet: their outlines grown by the gap (coarse, for the drop) and as
-    shapely polygons (for the check and the free room)."""
+    """The placed parts of one sheet: their outlines grown by the gap (coarse, for the drop; also
+    padded into arrays of edges with their extremes at their own vertices, rebuilt when a part is
+    added) and as shapely polygons (for the check and the free room)."""
 
     def __init__(self, geoms: list[Polygon], options: NestOptions):
         self.options = options
@@ -56,16 +99,20 @@ class _Sheet:
         self.grown = [R._grow(R._coarse(np.asarray(g.exterior.coords)), options.gap + 2 * R.COARSE_TOL)[:, ::-1]
                       for g in geoms]  # x and y swapped: "right of" is "above"
         self._free = None
-        self._bounds()
+        self._changed()
 
-    def _bounds(self) -> None:
+    def _changed(self) -> None:
         self.bx = np.array([[G[:, 1].min(), G[:, 1].max(), G[:, 0].min(), G[:, 0].max()] for G in self.grown]).reshape(-1, 4)
+        G = _padded(self.grown)
+        self.heights, self.values = G[:, :, 1], G[:, :, 0]
+        self.edges = _edges(self.values, self.heights)
+        self.top, self.bottom = _extremes(self.heights, self.edges)  # each outline at its own vertices
 
     def add(self, g: Polygon) -> None:
         self.geoms.append(g)
         self.grown.append(R._grow(R._coarse(np.asarray(g.exterior.coords)), self.options.gap + 2 * R.COARSE_TOL)[:, ::-1])
         self._free = None
-        self._bounds()
+        self._changed()
 
     def free(self) -> list[Polygon]:
         if self._free is None:
@@ -84,31 +131,51 @@ class _Sheet:
             return False
         return not any(shapely.dwithin(g, o, self.options.gap) for o in self.geoms)
 
-    def drop(self, P: np.ndarray, x: float, lo: float, hi: float) -> float | None:
-        """Lowest y in [lo, hi] at which outline `P` (lower left at the origin), moved by x, is clear of
-        every grown part; None when there is none."""
-        Q = (P + [x, 0.0])[:, ::-1]
-        x0, x1 = x, x + float(np.ptp(P[:, 0]))
-        top = hi + float(np.ptp(P[:, 1]))
+    def drops(self, P: np.ndarray, xs: np.ndarray, lo: float, hi: float) -> np.ndarray:
+        """Per x in `xs`: the lowest y in [lo, hi] at which outline `P` (lower left at the origin),
+        moved by x, is clear of every grown part; NaN when there is none.
+
+        Per grown part near it, the heights it forbids are one interval, from the greatest y
+        keeping the part below it to the least putting it above (`rows._shift_past` in x and y
+        swapped: the largest difference of the two outlines at their vertices' x), found for every
+        (x, part) pair at once."""
         b = self.bx
-        near = np.nonzero((b[:, 1] >= x0) & (b[:, 0] <= x1) & (b[:, 3] > lo) & (b[:, 2] < top))[0]
-        blocked = []
-        for k in near:
-            G = self.grown[k]
-            up = R._shift_past(G, Q)  # least y putting the part above this one
-            if not math.isfinite(up):
+        w, h = float(np.ptp(P[:, 0])), float(np.ptp(P[:, 1]))
+        upright = np.nonzero((b[:, 3] > lo) & (b[:, 2] < hi + h))[0]  # those near it in y, at any x
+        QH = P[:, 0] + xs[:, None]  # per x: the part's vertices' heights (x), values (y)
+        QV = np.broadcast_to(P[:, 1], QH.shape)
+        QE = _edges(QV, QH)
+        q_top, q_bottom = _extremes(QH, QE)
+        near = (b[upright, 1] >= xs[:, None]) & (b[upright, 0] <= (xs + w)[:, None])
+        jj, kk = np.nonzero(near)
+        kk = upright[kk]
+        lo_p = np.maximum(b[kk, 0], QH.min(axis=1)[jj])  # the x both span
+        hi_p = np.minimum(b[kk, 1], QH.max(axis=1)[jj])
+        keep = lo_p <= hi_p
+        jj, kk, lo_p, hi_p = jj[keep], kk[keep], lo_p[keep], hi_p[keep]
+        g_top_q, g_bottom_q = _extremes(QH[jj], tuple(e[kk] for e in self.edges))
+        q_top_g, q_bottom_g = _extremes(self.heights[kk], tuple(e[jj] for e in QE))
+        Hs = np.concatenate([self.heights[kk], QH[jj]], axis=1)
+        span = (Hs >= lo_p[:, None]) & (Hs <= hi_p[:, None])
+        up = np.where(span, np.concatenate([self.top[kk], g_top_q], axis=1)
+                      - np.concatenate([q_bottom_g, q_bottom[jj]], axis=1), -np.inf).max(axis=1)
+        down = -np.where(span, np.concatenate([q_top_g, q_top[jj]], axis=1)
+                         - np.concatenate([self.bottom[kk], g_bottom_q], axis=1), -np.inf).max(axis=1)
+        blocked = down < up
+        jj, down, up = jj[blocked], down[blocked], up[blocked]
+        order = np.lexsort((up, down, jj))
+        ys = [lo] * len(xs)
+        done = [False] * len(xs)
+        for j, d, u in zip(jj[order].tolist(), down[order].tolist(), up[order].tolist()):
+            if done[j] or u <= ys[j]:
                 continue
-            down = -R._shift_past(Q, G)  # greatest y keeping it below
-            if down < up:
-                blocked.append((down, up))
-        y = lo
-        for down, up in sorted(blocked):
-            if up <= y:
-                continue
-            if down >= y:  # clear of this interval and of all after it (they begin higher)
-                break
-            y = up
-        return y if y <= hi + 1e-9 else None
+            if d >= ys[j]:  # clear of this interval and of all after it (they begin higher)
+                done[j] = True
+            else:
+                ys[j] = u
+        out = np.array(ys)
+        out[out > hi + 1e-9] = np.nan
+        return out
 
 
 def _spot(part: Polygon, sheet: _Sheet, grain) -> Placement | None:
@@ -149,12 +216,15 @@ def _spot(part: Polygon, sheet: _Sheet, grain) -> Placement | None:
             lo, hi = max(y0, m, ey0 - c[1]), min(y1 - h, H - m - h, ey1 - c[1])
             if xa > xb + 1e-9 or lo > hi + 1e-9:
                 continue
-            for x in np.arange(xa, xb + 1e-9, X_STEP):
-                y = sheet.drop(Pc, float(x), lo, hi)
-                if y is None or (best is not None and (y, x) >= best[:2]):
-                    continue
-                if sheet.clear(Polygon(P + [x, y])):
-                    best = (y, float(x), a, lo_pt)
+            xs = np.arange(xa, xb + 1e-9, X_STEP)
+            for k in range(0, len(xs), X_BATCH):
+                if best is not None and (lo, float(xs[k])) >= best[:2]:
+                    break  # every spot left here is no lower, or as low and further right
+                for x, y in zip(xs[k:k + X_BATCH], sheet.drops(Pc, xs[k:k + X_BATCH], lo, hi).tolist()):
+                    if math.isnan(y) or (best is not None and (y, x) >= best[:2]):
+                        continue
+                    if sheet.clear(Polygon(P + [x, y])):
+                        best = (y, float(x), a, lo_pt)
     if best is None:
         return None
     y, x, a, lo_pt = best
