@@ -19,6 +19,8 @@ wall time on two otherwise idle cores (stated as an estimate).
 FABKIT_BENCH_PROGRAMS=N refolds, programs and checks only the first N panels (`select`; the rest
 end "not selected"), to measure the other stages on a shared machine; the per-panel cost and the
 extrapolated total are printed so the full run can be judged. Default: every panel.
+FABKIT_BENCH_MANIFEST=FILE copies the run's manifest.json (every panel's stage, reason and set-ups)
+there, to compare the verdicts of two runs (`bench/compare_verdicts.py`).
 """
 from __future__ import annotations
 
@@ -45,7 +47,7 @@ def main() -> dict:
     from fabkit.panels.production_report import summary
     from fabkit.panels.surface import GridSurface, grid_from_topology
     from fabkit.report.book import write_book
-    from sim.production import carry_over, program_panel
+    from sim.production import carry_over, cup_refusal_before_refold, program_panel
     rows = []
     jobs = 2
     load0 = os.getloadavg()[0]
@@ -64,7 +66,7 @@ def main() -> dict:
         with panel_executor(jobs) as ex:  # one pool of workers for every stage, as `fabkit panels --cell`
             run = run_production(layout, out, cell_toml=CELL.read_bytes().decode("utf-8"), cell_name=CELL.name,
                                  program=program_panel, jobs=jobs, mat=mat, timeout=3600, select=subset,
-                                 carry=carry_over, executor=ex)
+                                 carry=carry_over, executor=ex, refuse_before_refold=cup_refusal_before_refold)
             t0 = time.perf_counter()
             write_run(run.geometry, out, plots=False, cut_files=True, executor=ex)
             t_files = time.perf_counter() - t0
@@ -89,6 +91,8 @@ def main() -> dict:
         import json
 
         entries = json.loads((out / "manifest.json").read_text())["panels"]
+        if os.environ.get("FABKIT_BENCH_MANIFEST"):
+            Path(os.environ["FABKIT_BENCH_MANIFEST"]).write_text((out / "manifest.json").read_text())
         computed_entries = [e for e in entries.values() if e.get("setups") and not e.get("same_as")]
         tried = sum(sum(s["stage"] != "skipped" for s in e["setups"]) for e in computed_entries)
         rows.append({"case": f"{len(layout.panels)} panels, {len(programmed)} programmed + checked "

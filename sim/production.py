@@ -17,7 +17,7 @@ import tempfile
 import tomllib
 from pathlib import Path
 
-__all__ = ["program_panel", "carry_over", "clamp_refusal", "cup_refusal"]
+__all__ = ["program_panel", "carry_over", "clamp_refusal", "cup_refusal", "cup_refusal_before_refold"]
 
 
 @functools.lru_cache(maxsize=4)
@@ -127,8 +127,34 @@ def cup_refusal(fold_path: Path, cell, grip_face: int | None = None) -> str | No
     if any(problem is None for _, problem in misfits):
         return None
     f, problem = misfits[0]
-    return (f"no middle-row face carries the {2000 * cell.tool.cup_radius:.0f} mm cup "
-            f"({len(faces)} tried); grip face {f}: {problem}")
+    return _no_cup(cell.tool.cup_radius, len(faces), f, problem)
+
+
+def _no_cup(cup_radius: float, tried: int, face: int, problem: str, where: str = "middle-row face") -> str:
+    return f"no {where} carries the {2000 * cup_radius:.0f} mm cup ({tried} tried); grip face {face}: {problem}"
+
+
+def cup_refusal_before_refold(geometry, faces, cell_toml: str, cell_name: str, *, deviation_m: float,
+                              sheet=None, middle_row: bool = True) -> str | None:
+    """`program_panel`'s refusal of a set-up whose cup no refold can seat, or None, from the set-up's
+    flat pattern and target (`fabkit.cup_before_refold`, two-state `geometry`) before its refold:
+    every one of `faces` (the faces the planner may grip; `middle_row` False: a larger set, every
+    face of the panel) is refused by the check's cup rule on any refold whose last state is within
+    `deviation_m` [m] of the target. None with a `sheet` (its pad is checked with the fold loads,
+    as `program_panel` does) or a cell without a cup."""
+    from fabkit.cup_before_refold import cup_refused_before_refold
+
+    cell = _cell(cell_toml, cell_name)
+    radius = getattr(cell.tool, "cup_radius", None)
+    if sheet is not None or radius is None:
+        return None
+    misfits = cup_refused_before_refold(geometry, faces, radius, deviation_m=deviation_m)
+    if misfits is None:
+        return None
+    first = misfits[0]
+    no_cup = _no_cup(radius, len(faces), int(faces[0]), first.problem,
+                     "middle-row face" if middle_row else "face of the panel")
+    return f"holds: {no_cup} (the cup check, run before the refold: nothing was refolded, planned or checked)"
 
 
 def carry_over(result: dict, fold_text: str, fold_name: str, note: str) -> dict:
