@@ -22,7 +22,7 @@ def main(argv=None) -> int:
     from fabkit.generate.pleated import pleated_vault
     from fabkit.panels.layout import layout_panels
     from fabkit.panels.production import ProductionOptions, program_task, stock
-    from fabkit.panels.production_refold import _refold, _refold_solver, panel_setups, refusal_before_refold
+    from fabkit.panels.production_refold import _refold_solver, _solve, panel_setups, refusal_before_refold
     from fabkit.panels.surface import GridSurface, grid_from_topology
     from fabkit.panels.workflow import PanelsOptions, run_panels
     from sim.production import _cell, cup_refusal, cup_refusal_before_refold, program_panel
@@ -54,7 +54,7 @@ def main(argv=None) -> int:
                 pre = refusal_before_refold(task, setup, prepared[0])
                 t_pre += time.perf_counter() - t0
                 counts["pre-test refuses"] += bool(pre)
-                _, fold, why = _refold(task, *prepared)
+                _, fold, why = _solve(task, *prepared)
                 if fold is None:
                     counts["refold fails"] += 1
                     print(f"{p.name} {setup.describe()}: refold fails ({why[:80]}); pre-test: {bool(pre)}")

@@ -157,8 +157,14 @@ def refusal_before_refold(task: dict, setup: Setup, solver) -> str | None:
                   middle_row=setup.grip is not None)
 
 
-def _refold(task: dict, solver, driven, notes) -> tuple[dict | None, str | None, str]:
-    """(refold summary or None, FOLD text or None, reason) of one set-up's solver."""
+def _refold(task: dict, setup: Setup) -> tuple[dict | None, str | None, str]:
+    """(refold summary or None, FOLD text or None, reason) of one set-up."""
+    prepared = _refold_solver(task, setup)
+    return (None, None, prepared) if isinstance(prepared, str) else _solve(task, *prepared)
+
+
+def _solve(task: dict, solver, driven, notes) -> tuple[dict | None, str | None, str]:
+    """(refold summary or None, FOLD text or None, reason) of one set-up's solver: its fold states."""
     from fabkit.fold import validate_fold_model
     from fabkit.io.fold import fold_text
     from fabkit.refold.export import to_fold_model
@@ -221,7 +227,7 @@ def refold_and_program(task: dict) -> dict:
         elif refused:  # the program's check would refuse it whatever the refold: not refolded
             summary, text, why = None, None, ""
         else:
-            summary, text, why = _refold(task, *prepared)
+            summary, text, why = _solve(task, *prepared)
         out["refold"] = summary
         if refused:
             out.update(stage="check", reason=refused)
