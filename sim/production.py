@@ -58,11 +58,15 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
         path.write_text(fold_text)
         cell_file = Path(tmp) / Path(cell_name).name
         cell_file.write_bytes(cell_toml.encode("utf-8"))
-        unclampable = clamp_refusal(path, _cell(cell_toml, cell_name))
+        from fabkit.io.fold import load_fold
+
+        model = load_fold(path)  # read once for both refusals (the planner and the check read the file)
+        unclampable = clamp_refusal(model, _cell(cell_toml, cell_name))
         if unclampable:  # the check would fail on it whatever the program: not planned
             return {**out, "stage": "check", "reason": f"waypoint 0 holds: {unclampable} (the clamp check, run "
                     "before planning: no program was planned or checked)", "unclampable": unclampable}
-        no_cup = None if sheet is not None else cup_refusal(path, _cell(cell_toml, cell_name), grip_face)
+        no_cup = None if sheet is not None else cup_refusal(model, _cell(cell_toml, cell_name), grip_face,
+                                                            source=str(path))
         if no_cup:  # every face the planner could grip is refused by the check's cup rule: not planned
             return {**out, "stage": "check", "reason": f"holds: {no_cup} (the cup check, run before planning: "
                     "no program was planned or checked)"}
@@ -90,39 +94,47 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
     return out
 
 
-def clamp_refusal(fold_path: Path, cell) -> str | None:
-    """The check's clamp footprint problem of the FOLD file's panel in `cell`, or None: the clamp's
-    footprint leaves the clamped face where the planner places the panel (`robot.panel_placement`).
+def _fold_model(fold):
+    """`fold` as a `FoldModel`: a FOLD file's path is read, a model is taken as it is."""
+    from fabkit.io.fold import load_fold
+
+    return load_fold(fold) if isinstance(fold, (str, Path)) else fold
+
+
+def clamp_refusal(fold, cell) -> str | None:
+    """The check's clamp footprint problem of the FOLD file's panel in `cell` (`fold`: the file's
+    path or its `FoldModel`), or None: the clamp's footprint leaves the clamped face where the
+    planner places the panel (`robot.panel_placement`).
     It is a problem of the check (`sim.check_holds.clamp_problems`, computed as the check computes
     it, from the same placement) that no program escapes, so a set-up it refuses is refused before
     its plan and check are paid for."""
-    from fabkit.io.fold import load_fold
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
     from sim.check_holds import clamp_problems
 
-    model = load_fold(fold_path)
+    model = _fold_model(fold)
     clamped = clamped_faces_of(model)
     placed = placed_cell(cell, placement_for(cell, model))
     problems = clamp_problems(model, placed, clamped, 1)
     return problems[0].detail if problems else None
 
 
-def cup_refusal(fold_path: Path, cell, grip_face: int | None = None) -> str | None:
-    """Why no face the planner may grip carries the cell's cup, or None: every middle-row face it
+def cup_refusal(fold, cell, grip_face: int | None = None, source: str | None = None) -> str | None:
+    """Why no face the planner may grip carries the cell's cup, or None (`fold`: the FOLD file's
+    path or its `FoldModel`, `source` its name in errors): every middle-row face it
     tries (`robot.grip_choice.grip_order`, or `grip_face`) fails the cup rule the check applies
     (`sim.check_cup`, through `robot.plan_cell.cup_footprint_of`), so any one-grip program of this
     set-up is refused and the plan and check are not paid for."""
     from fabkit.frames import planning_frames
-    from fabkit.io.fold import load_fold
     from robot.grip_choice import grip_order
     from robot.plan_cell import cup_footprint_of
 
-    model = load_fold(fold_path)
+    model = _fold_model(fold)
     footprint = cup_footprint_of(cell, model)
     if footprint is None:
         return None
-    faces = grip_order(planning_frames(model, grip_face, source=str(fold_path)), grip_face)
+    source = source if source is not None else str(fold) if isinstance(fold, (str, Path)) else None
+    faces = grip_order(planning_frames(model, grip_face, source=source), grip_face)
     misfits = [(f, footprint(f)) for f in faces]
     if any(problem is None for _, problem in misfits):
         return None
