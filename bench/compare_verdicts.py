@@ -26,7 +26,8 @@ def verdicts(path: str) -> tuple[dict, dict]:
     for name, e in panels.items():
         final[name] = (e.get("stage"), _plain(e.get("reason", "")))
         for s in e.get("setups") or ():
-            setups[(name, s["clamped_face"], s["grip_face"], s["face_up_on_fixture"])] = (s["stage"], _plain(s["reason"]))
+            key = (name, s["clamped_face"], s["grip_face"], s["face_up_on_fixture"])
+            setups[key] = (s["stage"], _plain(s["reason"]))
     return final, setups
 
 
