@@ -44,9 +44,11 @@ def plain_mm_panel(tmp_path_factory):
     return solver, geometry, folds.model
 
 
-@pytest.mark.parametrize("cup_mm, refused, why", [(50.0, False, ""), (70.0, True, "leaves its plane"),
-                                                    (900.0, True, "does not fit")])
-def test_the_pre_test_refuses_a_plain_panel_s_grip_face_as_the_full_rule(plain_mm_panel, cup_mm, refused, why):
+@pytest.mark.parametrize("cup_mm, refused, why, planarity_mm", [(50.0, False, "", 0.254),
+                                                                  (70.0, True, "leaves its plane", 0.945),
+                                                                  (900.0, True, "does not fit", None)])
+def test_the_pre_test_refuses_a_plain_panel_s_grip_face_as_the_full_rule(plain_mm_panel, cup_mm, refused, why,
+                                                                         planarity_mm):
     """50 mm: the cup fits and the sheet under it is planar (0.25 mm); 70 mm: it fits, but the sheet
     under it curves away by 0.95 mm in the folded states (lip 0.5 mm); 900 mm: wider than the panel."""
     solver, geometry, model = plain_mm_panel
@@ -58,8 +60,12 @@ def test_the_pre_test_refuses_a_plain_panel_s_grip_face_as_the_full_rule(plain_m
     for f in faces:
         pre = cup_refused_before_refold(geometry, [f], r, deviation_m=deviation)
         assert (pre is not None) is refused and (not full(f).ok) is refused, (f, pre, full(f))
+        if planarity_mm is not None:  # the folded state is the worst: the target measures what the states do
+            assert full(f).planarity_m == pytest.approx(planarity_mm * 1e-3, abs=0.01e-3)
         if refused:
             assert why in pre[0].problem and why in full(f).problem
+        if refused and planarity_mm is not None:
+            assert pre[0].planarity_m == pytest.approx(full(f).planarity_m, abs=1e-7)
         if refused and why == "does not fit":  # the flat part of the rule: the same words as the check
             assert pre[0].problem == full(f).problem
     # one face that the cup fits keeps the whole set open (the planner may grip it)
