@@ -19,6 +19,8 @@ wall time on two otherwise idle cores (stated as an estimate).
 FABKIT_BENCH_PROGRAMS=N refolds, programs and checks only the first N panels (`select`; the rest
 end "not selected"), to measure the other stages on a shared machine; the per-panel cost and the
 extrapolated total are printed so the full run can be judged. Default: every panel.
+FABKIT_BENCH_MANIFEST=FILE copies the run's manifest.json (every panel's stage, reason and set-ups)
+there, to compare the verdicts of two runs (`bench/compare_verdicts.py`).
 """
 from __future__ import annotations
 
@@ -45,7 +47,7 @@ def main() -> dict:
     from fabkit.panels.production_report import summary
     from fabkit.panels.surface import GridSurface, grid_from_topology
     from fabkit.report.book import write_book
-    from sim.production import carry_over, program_panel
+    from sim.production import carry_over, cup_refusal_before_refold, program_panel
     rows = []
     jobs = 2
     load0 = os.getloadavg()[0]
@@ -64,7 +66,7 @@ def main() -> dict:
         with panel_executor(jobs) as ex:  # one pool of workers for every stage, as `fabkit panels --cell`
             run = run_production(layout, out, cell_toml=CELL.read_bytes().decode("utf-8"), cell_name=CELL.name,
                                  program=program_panel, jobs=jobs, mat=mat, timeout=3600, select=subset,
-                                 carry=carry_over, executor=ex)
+                                 carry=carry_over, executor=ex, refuse_before_refold=cup_refusal_before_refold)
             t0 = time.perf_counter()
             write_run(run.geometry, out, plots=False, cut_files=True, executor=ex)
             t_files = time.perf_counter() - t0
@@ -89,8 +91,12 @@ def main() -> dict:
         import json
 
         entries = json.loads((out / "manifest.json").read_text())["panels"]
+        if os.environ.get("FABKIT_BENCH_MANIFEST"):
+            Path(os.environ["FABKIT_BENCH_MANIFEST"]).write_text((out / "manifest.json").read_text())
         computed_entries = [e for e in entries.values() if e.get("setups") and not e.get("same_as")]
         tried = sum(sum(s["stage"] != "skipped" for s in e["setups"]) for e in computed_entries)
+        refolded = sum(sum(s["stage"] != "skipped" and "run before the refold" not in s["reason"] for s in e["setups"])
+                       for e in computed_entries)
         rows.append({"case": f"{len(layout.panels)} panels, {len(programmed)} programmed + checked "
                              f"({computed} computed, {len(run.same_as)} as the same part)", "workers": jobs,
                      "seconds": total, "layout s": t_layout, "relax+unfold s": run.seconds["relax_unfold"],
@@ -104,7 +110,7 @@ def main() -> dict:
                      "ok": sum(p.ok for p in run.panels), "with files or a named reason": with_files,
                      "failed by stage": {k: v for k, v in rep["totals"]["failed_by_stage"].items()},
                      "robot time min": run.robot_time_s / 60,
-                     "set-ups tried (refold+plan, computed parts)": tried,
+                     "set-ups tried (computed parts)": tried, "set-ups refolded (computed parts)": refolded,
                      "seconds per computed part (workers)": cpu_workers / max(1, computed)})
         nests = {"rows": nest}
         for engine, limit in (("shelf", 0), ("packingsolver", 10)):

@@ -38,7 +38,8 @@ _RINGS = 4          # sample rings over the disc (plus the centre)
 class GripCandidate:
     """One grip region: `faces` polygon ids, `centre` (2,) disc centre in the flat pattern (m),
     `inscribed_m` the largest disc radius that fits, `planarity_m` worst distance of the sheet under
-    the cup from a plane over all states, `ok` (fits and planar), `problem` why not."""
+    the cup from a plane over all states, `ok` (fits and planar), `problem` why not, `fits` the disc
+    lies on the region in the flat pattern (the part of the rule no fold state changes)."""
 
     faces: tuple[int, ...]
     centre: tuple[float, float]
@@ -46,6 +47,7 @@ class GripCandidate:
     planarity_m: float
     ok: bool
     problem: str = ""
+    fits: bool = True
 
     @property
     def face(self) -> int:
@@ -152,7 +154,7 @@ def grip_candidates(seq, cup_radius: float, *, lip_compliance: float = DEFAULT_L
             problem = f"the sheet under the cup leaves its plane by {planarity * 1000:.2f} mm (lip takes " \
                       f"{lip_compliance * 1000:.2f} mm)"
         out.append(GripCandidate(faces=ordered, centre=(float(centre[0]), float(centre[1])), inscribed_m=inscribed,
-                                 planarity_m=planarity, ok=not problem, problem=problem))
+                                 planarity_m=planarity, ok=not problem, problem=problem, fits=flat_ok))
     out.sort(key=lambda c: (not c.ok, -round(c.inscribed_m, 9), round(c.planarity_m, 9), round(c.centre[0], 9),
                             round(c.centre[1], 9)))
     return out
@@ -236,7 +238,7 @@ def pad_footprint(seq, face: int, radius: float, *, lip_compliance: float = DEFA
         problem = (f"the sheet under the {tool} leaves its plane by {planarity * 1000:.2f} mm (lips take "
                    f"{lip_compliance * 1000:.2f} mm)")
     return GripCandidate(faces=polys, centre=(float(centre[0]), float(centre[1])), inscribed_m=room,
-                         planarity_m=planarity, ok=not problem, problem=problem)
+                         planarity_m=planarity, ok=not problem, problem=problem, fits=bool(inside))
 
 
 def cup_fit(fold_model, cup_radius: float, *, lip_compliance: float = DEFAULT_LIP_COMPLIANCE):

@@ -17,7 +17,7 @@ import tempfile
 import tomllib
 from pathlib import Path
 
-__all__ = ["program_panel", "carry_over", "clamp_refusal", "cup_refusal"]
+__all__ = ["program_panel", "carry_over", "clamp_refusal", "cup_refusal", "cup_refusal_before_refold"]
 
 
 @functools.lru_cache(maxsize=4)
@@ -58,11 +58,15 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
         path.write_text(fold_text)
         cell_file = Path(tmp) / Path(cell_name).name
         cell_file.write_bytes(cell_toml.encode("utf-8"))
-        unclampable = clamp_refusal(path, _cell(cell_toml, cell_name))
+        from fabkit.io.fold import load_fold
+
+        model = load_fold(path)  # read once for both refusals (the planner and the check read the file)
+        unclampable = clamp_refusal(model, _cell(cell_toml, cell_name))
         if unclampable:  # the check would fail on it whatever the program: not planned
             return {**out, "stage": "check", "reason": f"waypoint 0 holds: {unclampable} (the clamp check, run "
                     "before planning: no program was planned or checked)", "unclampable": unclampable}
-        no_cup = None if sheet is not None else cup_refusal(path, _cell(cell_toml, cell_name), grip_face)
+        no_cup = None if sheet is not None else cup_refusal(model, _cell(cell_toml, cell_name), grip_face,
+                                                            source=str(path))
         if no_cup:  # every face the planner could grip is refused by the check's cup rule: not planned
             return {**out, "stage": "check", "reason": f"holds: {no_cup} (the cup check, run before planning: "
                     "no program was planned or checked)"}
@@ -90,45 +94,79 @@ def program_panel(fold_text: str, fold_name: str, cell_toml: str, cell_name: str
     return out
 
 
-def clamp_refusal(fold_path: Path, cell) -> str | None:
-    """The check's clamp footprint problem of the FOLD file's panel in `cell`, or None: the clamp's
-    footprint leaves the clamped face where the planner places the panel (`robot.panel_placement`).
+def _fold_model(fold):
+    """`fold` as a `FoldModel`: a FOLD file's path is read, a model is taken as it is."""
+    from fabkit.io.fold import load_fold
+
+    return load_fold(fold) if isinstance(fold, (str, Path)) else fold
+
+
+def clamp_refusal(fold, cell) -> str | None:
+    """The check's clamp footprint problem of the FOLD file's panel in `cell` (`fold`: the file's
+    path or its `FoldModel`), or None: the clamp's footprint leaves the clamped face where the
+    planner places the panel (`robot.panel_placement`).
     It is a problem of the check (`sim.check_holds.clamp_problems`, computed as the check computes
     it, from the same placement) that no program escapes, so a set-up it refuses is refused before
     its plan and check are paid for."""
-    from fabkit.io.fold import load_fold
     from robot.holds_record import clamped_faces_of
     from robot.panel_placement import placed_cell, placement_for
     from sim.check_holds import clamp_problems
 
-    model = load_fold(fold_path)
+    model = _fold_model(fold)
     clamped = clamped_faces_of(model)
     placed = placed_cell(cell, placement_for(cell, model))
     problems = clamp_problems(model, placed, clamped, 1)
     return problems[0].detail if problems else None
 
 
-def cup_refusal(fold_path: Path, cell, grip_face: int | None = None) -> str | None:
-    """Why no face the planner may grip carries the cell's cup, or None: every middle-row face it
+def cup_refusal(fold, cell, grip_face: int | None = None, source: str | None = None) -> str | None:
+    """Why no face the planner may grip carries the cell's cup, or None (`fold`: the FOLD file's
+    path or its `FoldModel`, `source` its name in errors): every middle-row face it
     tries (`robot.grip_choice.grip_order`, or `grip_face`) fails the cup rule the check applies
     (`sim.check_cup`, through `robot.plan_cell.cup_footprint_of`), so any one-grip program of this
     set-up is refused and the plan and check are not paid for."""
     from fabkit.frames import planning_frames
-    from fabkit.io.fold import load_fold
     from robot.grip_choice import grip_order
     from robot.plan_cell import cup_footprint_of
 
-    model = load_fold(fold_path)
+    model = _fold_model(fold)
     footprint = cup_footprint_of(cell, model)
     if footprint is None:
         return None
-    faces = grip_order(planning_frames(model, grip_face, source=str(fold_path)), grip_face)
+    source = source if source is not None else str(fold) if isinstance(fold, (str, Path)) else None
+    faces = grip_order(planning_frames(model, grip_face, source=source), grip_face)
     misfits = [(f, footprint(f)) for f in faces]
     if any(problem is None for _, problem in misfits):
         return None
     f, problem = misfits[0]
-    return (f"no middle-row face carries the {2000 * cell.tool.cup_radius:.0f} mm cup "
-            f"({len(faces)} tried); grip face {f}: {problem}")
+    return _no_cup(cell.tool.cup_radius, len(faces), f, problem)
+
+
+def _no_cup(cup_radius: float, tried: int, face: int, problem: str, where: str = "middle-row face") -> str:
+    return f"no {where} carries the {2000 * cup_radius:.0f} mm cup ({tried} tried); grip face {face}: {problem}"
+
+
+def cup_refusal_before_refold(geometry, faces, cell_toml: str, cell_name: str, *, deviation_m: float,
+                              sheet=None, middle_row: bool = True) -> str | None:
+    """`program_panel`'s refusal of a set-up whose cup no refold can seat, or None, from the set-up's
+    flat pattern and target (`fabkit.cup_before_refold`, two-state `geometry`) before its refold:
+    every one of `faces` (the faces the planner may grip; `middle_row` False: a larger set, every
+    face of the panel) is refused by the check's cup rule on any refold whose last state is within
+    `deviation_m` [m] of the target. None with a `sheet` (its pad is checked with the fold loads,
+    as `program_panel` does) or a cell without a cup."""
+    from fabkit.cup_before_refold import cup_refused_before_refold
+
+    cell = _cell(cell_toml, cell_name)
+    radius = getattr(cell.tool, "cup_radius", None)
+    if sheet is not None or radius is None:
+        return None
+    misfits = cup_refused_before_refold(geometry, faces, radius, deviation_m=deviation_m)
+    if misfits is None:
+        return None
+    first = misfits[0]
+    no_cup = _no_cup(radius, len(faces), int(faces[0]), first.problem,
+                     "middle-row face" if middle_row else "face of the panel")
+    return f"holds: {no_cup} (the cup check, run before the refold: nothing was refolded, planned or checked)"
 
 
 def carry_over(result: dict, fold_text: str, fold_name: str, note: str) -> dict:

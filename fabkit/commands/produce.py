@@ -83,7 +83,7 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
     from fabkit.panels.production_report import summary
     from fabkit.panels.workflow import PanelsOptions
     from fabkit.report.book import write_book
-    from sim.production import carry_over, program_panel
+    from sim.production import carry_over, cup_refusal_before_refold, program_panel
 
     cell_path = Path(args.cell)
     if not cell_path.is_file():
@@ -116,7 +116,8 @@ def run_production_command(args, surface, lowpoly: bool, layout) -> int:
                              options=ProductionOptions(frames=args.frames, overrides=overrides,
                                                        same_part_tol=None if args.each_panel else SAME_PART_TOL,
                                                        sheet=spec, tool_mass=args.tool_mass),
-                             mat=mat, jobs=args.jobs, scheduler=args.scheduler, progress=show, executor=ex)
+                             mat=mat, jobs=args.jobs, scheduler=args.scheduler, progress=show, executor=ex,
+                             refuse_before_refold=cup_refusal_before_refold)
         t1 = time.perf_counter()
         write_run(run.geometry, out, plots=not args.no_plots, cut_files=True, executor=ex)
     seconds = dict(run.seconds)

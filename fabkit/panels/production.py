@@ -118,14 +118,19 @@ class ProductionRun:
 
 
 def program_task(panel, result, options: ProductionOptions, cell_toml: str, cell_name: str, mat: Stock,
-                  program: Callable) -> dict:
+                 program: Callable, refuse_before_refold: Callable | None = None) -> dict:
+    """The refold + program + check task of one panel (`refold_and_program`'s input: plain data and
+    the two functions of `run_production`)."""
     frames = int(options.overrides.get(panel.name, {}).get("frames", options.frames))
     fd = {k: np.asarray(v) for k, v in panel.mesh.face_data.items() if k in ("strip", "column", "middle", "row")}
-    return {"id": panel.id, "name": panel.name, "faces": panel.mesh.topology.face_array, "face_data": fd,
+    task = {"id": panel.id, "name": panel.name, "faces": panel.mesh.topology.face_array, "face_data": fd,
             "uv": np.asarray(result.uv), "relaxed": np.asarray(result.relaxed), "frames": frames,
             "target_tol": options.target_tol, "length_tol": options.length_tol, "cell_toml": cell_toml,
             "cell_name": cell_name, "thickness": mat.thickness, "program": program, "sheet": options.sheet,
             "tool_mass": options.tool_mass}
+    if refuse_before_refold is not None:
+        task["refuse_before_refold"] = refuse_before_refold
+    return task
 
 
 def _part(task: dict) -> dict:
@@ -189,7 +194,8 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
                    panels_options=None, options: ProductionOptions = ProductionOptions(),
                    mat: Stock | None = None, jobs: int = 1, scheduler: str | None = None,
                    progress: Callable | None = None, timeout: float | None = None,
-                   select=None, carry: Callable | None = None, executor=None) -> ProductionRun:
+                   select=None, carry: Callable | None = None, executor=None,
+                   refuse_before_refold: Callable | None = None) -> ProductionRun:
     """Run every stage for every panel of `layout` into folder `out` (see the module docstring).
 
     `program(fold_text, fold_name, cell_toml, cell_name, thickness) -> dict` plans and checks one
@@ -203,6 +209,9 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
     programmed and checked; the others get its results, each recorded with the deviation.
     `executor`: an open `fabkit.panels.executor.panel_executor` every stage runs on (one pool of
     workers for the run: imports and caches paid once per worker), instead of one per stage.
+    `refuse_before_refold(geometry, faces, cell_toml, cell_name, deviation_m=, sheet=, middle_row=)
+    -> reason or None` refuses a set-up its check would refuse whatever the refold, before it is
+    refolded (`sim.production.cup_refusal_before_refold`; `production_refold.refusal_before_refold`).
     """
     mat = stock() if mat is None else mat
     from fabkit.panels.cache import ResultCache
@@ -239,7 +248,8 @@ def run_production(layout, out: str | os.PathLike, *, cell_toml: str, cell_name:
         if select is not None and p.name not in select:
             statuses[p.id] = ("refold", "not selected for refold, program and check in this run", {}, None, None, None)
             continue
-        task = program_task(p, geometry.results[p.id], options, cell_toml, cell_name, mat, program)
+        task = program_task(p, geometry.results[p.id], options, cell_toml, cell_name, mat, program,
+                            refuse_before_refold)
         reuse = options.same_part_tol if carry is not None else None
         key = hashlib.sha256((PROGRAM_SALT + cache.key({**task, "same_part_tol": reuse})).encode()).hexdigest()
         prev = entries.get(p.name)

@@ -14,8 +14,10 @@ fabricator, and the arm reaches some and not others: so the set-ups are tried in
 and the first whose program plans and passes the check is kept (each with the refold and the
 check of its own). A clamp face that the check finds the clamp cannot hold (its footprint leaves
 the sheet the jaw can hold around the face, or the face bends) is not tried again with the other
-face up. A panel for which none
-passes ends with the first set-up's stage and reason, the others' named after it.
+face up. A set-up the program's check would refuse whatever its refold is refused before it is
+refolded (`task["refuse_before_refold"]`, `refusal_before_refold`: the cup on the set-up's grip
+face, from the flat pattern and the target). A panel for which none passes ends with the first
+set-up's stage and reason, the others' named after it.
 """
 from __future__ import annotations
 
@@ -25,7 +27,8 @@ import numpy as np
 
 from fabkit.errors import InputError
 
-__all__ = ["Setup", "panel_setups", "clamp_problem", "refold_inputs", "refold_and_program", "panel_frame_of_task"]
+__all__ = ["Setup", "panel_setups", "clamp_problem", "refold_inputs", "refusal_before_refold", "refold_and_program",
+           "panel_frame_of_task"]
 
 
 class Setup(tuple):
@@ -114,13 +117,9 @@ def refold_inputs(task: dict, setup: Setup):
     return flat, target
 
 
-def _refold(task: dict, setup: Setup) -> tuple[dict | None, str | None, str]:
-    """(refold summary or None, FOLD text or None, reason) of one set-up."""
-    from fabkit.fold import validate_fold_model
-    from fabkit.io.fold import fold_text
+def _refold_solver(task: dict, setup: Setup):
+    """(RefoldSolver set up for `setup`, driven hinges, notes), or the reason it cannot be set up."""
     from fabkit.refold import NotAFoldError, RefoldSolver
-    from fabkit.refold.export import to_fold_model
-    from fabkit.refold.sequence import build_schedule
 
     name = task["name"]
     flat, target = refold_inputs(task, setup)
@@ -129,7 +128,49 @@ def _refold(task: dict, setup: Setup) -> tuple[dict | None, str | None, str]:
                               flat_name=f"{name} flat", target_name=f"{name} relaxed")
         driven, notes = solver.driven_hinges("middle-row")
     except (NotAFoldError, InputError) as exc:
-        return None, None, str(exc)
+        return str(exc)
+    return solver, driven, notes
+
+
+def refusal_before_refold(task: dict, setup: Setup, solver) -> str | None:
+    """Why `setup` fails whatever its refold, from the flat pattern and the target alone, or None:
+    `task["refuse_before_refold"](geometry, faces, cell_toml, cell_name, deviation_m=, sheet=,
+    middle_row=)` (`sim.production.cup_refusal_before_refold`) on the two-state geometry of the
+    set-up's solver (`fabkit.cup_before_refold`), the faces the planner may grip (the set-up's grip
+    face when it is a middle-row face; every face of the panel without one, a set that holds every
+    face the planner could try) and the last state's largest accepted deviation from the target."""
+    from fabkit.cup_before_refold import flat_and_target_geometry
+    from fabkit.refold.sequence import edge_kind_names
+
+    refuse = task.get("refuse_before_refold")
+    if refuse is None:
+        return None
+    middle = {int(f) for f in solver.structure.middle_row}
+    if setup.grip is not None and setup.grip not in middle:  # the planner refuses it in its own words
+        return None
+    faces = [setup.grip] if setup.grip is not None else list(range(solver.flat.n_faces))
+    p = solver.panel
+    geometry = flat_and_target_geometry(solver.flat_vertices, p.tris, p.tri_face, p.edges, edge_kind_names(p),
+                                        solver.target.vertices, solver.target_angles)
+    return refuse(geometry, faces, task["cell_toml"], task["cell_name"],
+                  deviation_m=float(task["target_tol"]) * float(solver.panel_size), sheet=task.get("sheet"),
+                  middle_row=setup.grip is not None)
+
+
+def _refold(task: dict, setup: Setup) -> tuple[dict | None, str | None, str]:
+    """(refold summary or None, FOLD text or None, reason) of one set-up."""
+    prepared = _refold_solver(task, setup)
+    return (None, None, prepared) if isinstance(prepared, str) else _solve(task, *prepared)
+
+
+def _solve(task: dict, solver, driven, notes) -> tuple[dict | None, str | None, str]:
+    """(refold summary or None, FOLD text or None, reason) of one set-up's solver: its fold states."""
+    from fabkit.fold import validate_fold_model
+    from fabkit.io.fold import fold_text
+    from fabkit.refold.export import to_fold_model
+    from fabkit.refold.sequence import build_schedule
+
+    name = task["name"]
     fractions, step_of_state = build_schedule(solver.panel, driven, None, int(task["frames"]))
     seq = solver.solve(fractions, driven, step_of_state, check_intersections=True, notes=notes)
     summary = seq.summary()
@@ -179,9 +220,18 @@ def refold_and_program(task: dict) -> dict:
                                    "face_up_on_fixture": out["face_up_on_fixture"], "stage": "skipped",
                                    "reason": unclampable[setup.clamp]})
             continue
-        summary, text, why = _refold(task, setup)
+        prepared = _refold_solver(task, setup)
+        refused = None if isinstance(prepared, str) else refusal_before_refold(task, setup, prepared[0])
+        if isinstance(prepared, str):
+            summary, text, why = None, None, prepared
+        elif refused:  # the program's check would refuse it whatever the refold: not refolded
+            summary, text, why = None, None, ""
+        else:
+            summary, text, why = _solve(task, *prepared)
         out["refold"] = summary
-        if text is None:
+        if refused:
+            out.update(stage="check", reason=refused)
+        elif text is None:
             out.update(stage="refold", reason=why)
         else:
             out["fold"] = text
