@@ -41,40 +41,71 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from shapely import affinity
+import shapely
 from shapely.geometry import Polygon
 
 from fabkit.nest.engines import NestOptions, Placement, grain_angles
+from fabkit.nest.outline_math import shifts_past
 
 __all__ = ["nest_rows", "least_height_angle", "least_cell_angle", "ideal_shelf_cell", "SHELF_SLACK", "TALLER", "WASTE_NEW"]
+
+
+def _turned_bounds(part: Polygon, angles: list[float]) -> np.ndarray:
+    """Bounds (x0, y0, x1, y1) of `part` rotated by each of `angles` [deg] about the origin, one a
+    row: the arithmetic of shapely's `affinity.rotate`, so the same numbers, for every angle at once."""
+    cs = []
+    for a in angles:
+        r = a * math.pi / 180.0
+        c, s = math.cos(r), math.sin(r)
+        cs.append((0.0 if abs(c) < 2.5e-16 else c, 0.0 if abs(s) < 2.5e-16 else s))
+    c, s = (np.array(cs).reshape(-1, 2).T)[:, :, None]
+    xoff, yoff = 0.0 - 0.0 * c + 0.0 * s, 0.0 - 0.0 * s - 0.0 * c
+    x, y = shapely.get_coordinates(part).T
+    xp, yp = c * x + (-s) * y + xoff, s * x + c * y + yoff
+    return np.stack([xp.min(axis=1), yp.min(axis=1), xp.max(axis=1), yp.max(axis=1)], axis=1)
+
+
+def _hull_angles(part: Polygon) -> list[float]:
+    """The rotations [deg] turning each hull edge of `part` onto the x axis."""
+    h = np.asarray(part.convex_hull.exterior.coords)
+    return [-math.degrees(math.atan2(y, x)) for x, y in np.diff(h, axis=0) if x or y]
+
+
+def _least_height(angles: list[float], bounds: np.ndarray) -> float:
+    """The first of `angles` with the least bounding-box height (`bounds` per angle), else 0."""
+    best, best_h = 0.0, math.inf
+    for a, h in zip(angles, (bounds[:, 3] - bounds[:, 1]).tolist()):
+        if h < best_h - 1e-9:
+            best, best_h = float(a), h
+    return best
 
 
 def least_height_angle(part: Polygon, angles: list[float] | None = None) -> float:
     """The rotation [deg] (about the origin) giving `part` its least bounding-box height: one of
     its hull edges turned onto the x axis, or one of `angles` when given (grain)."""
-    if angles is None:
-        h = np.asarray(part.convex_hull.exterior.coords)
-        d = np.diff(h, axis=0)
-        angles = [-math.degrees(math.atan2(y, x)) for x, y in d if x or y]
-    best, best_h = 0.0, math.inf
+    angles = _hull_angles(part) if angles is None else angles
+    return _least_height(angles, _turned_bounds(part, angles))
+
+
+def _shelf_cells(part: Polygon, gap: float, angles: list[float]) -> list[float]:
+    """`ideal_shelf_cell` of `part` at each of `angles`, their outlines grown and slid all at once."""
+    base = np.asarray(part.exterior.coords)
+    Ps, Qs = [], []
     for a in angles:
-        _, y0, _, y1 = affinity.rotate(part, a, origin=(0.0, 0.0)).bounds
-        if y1 - y0 < best_h - 1e-9:
-            best, best_h = float(a), y1 - y0
-    return best
+        P, Q = _rotate_pts(base, a), _rotate_pts(base, a + 180.0)
+        Ps.append(P - P.min(axis=0))
+        Qs.append(Q - Q.min(axis=0))
+    n = len(angles)
+    grown = _grow_all(Ps + Qs, gap)
+    s = shifts_past(grown[:n] * 2 + grown[n:], Ps + Qs + Ps).tolist()
+    return [min(s[k], 0.5 * (s[n + k] + s[2 * n + k])) * (np.ptp(Ps[k][:, 1]) + gap) for k in range(n)]
 
 
 def ideal_shelf_cell(part: Polygon, gap: float, angle: float | None = None) -> float:
     """Area [mm^2] the part takes in an endless shelf of its own copies, turned by `angle` (default:
     its least height), each the same way up or turned by 180 deg in turn, whichever is shorter:
     its slid pitch times (its height + the gap). The least a shelf nesting can give it."""
-    a = least_height_angle(part) if angle is None else angle
-    P = _rotate_pts(np.asarray(part.exterior.coords), a)
-    Q = _rotate_pts(np.asarray(part.exterior.coords), a + 180.0)
-    P, Q = P - P.min(axis=0), Q - Q.min(axis=0)
-    G, GQ = _grow(P, gap), _grow(Q, gap)
-    pitch = min(_shift_past(G, P), 0.5 * (_shift_past(G, Q) + _shift_past(GQ, P)))
-    return pitch * (np.ptp(P[:, 1]) + gap)
+    return _shelf_cells(part, gap, [least_height_angle(part) if angle is None else angle])[0]
 
 
 #: a part is turned to its least shelf cell only among the angles at most this many times its least
@@ -105,16 +136,15 @@ def least_cell_angle(part: Polygon, gap: float, angles: list[float] | None = Non
     `ideal_shelf_cell` among those where the part fits `room` (width, height; else its least
     height): a sheared part can waste less with its slanted sides across the shelf, where the gap
     between neighbours is measured square to them, not along the shelf."""
-    if angles is None:
-        h = np.asarray(part.convex_hull.exterior.coords)
-        angles = [-math.degrees(math.atan2(y, x)) for x, y in np.diff(h, axis=0) if x or y]
-    best, best_c = least_height_angle(part, angles), math.inf
-    _, lo, _, hi = affinity.rotate(part, best, origin=(0.0, 0.0)).bounds
-    for a in _distinct(angles):
-        x0, y0, x1, y1 = affinity.rotate(part, a, origin=(0.0, 0.0)).bounds
-        if x1 - x0 > room[0] + 1e-9 or y1 - y0 > min(room[1], TALLER * (hi - lo)) + 1e-9:
-            continue
-        c = ideal_shelf_cell(part, gap, a)
+    angles = _hull_angles(part) if angles is None else angles
+    best = _least_height(angles, _turned_bounds(part, angles))
+    distinct = _distinct(angles)
+    bounds = _turned_bounds(part, [best] + distinct).tolist()
+    _, lo, _, hi = bounds[0]
+    fits = [a for a, (x0, y0, x1, y1) in zip(distinct, bounds[1:])
+            if not (x1 - x0 > room[0] + 1e-9 or y1 - y0 > min(room[1], TALLER * (hi - lo)) + 1e-9)]
+    best_c = math.inf
+    for a, c in zip(fits, _shelf_cells(part, gap, fits) if fits else []):
         if c < best_c * (1 - 1e-9):
             best, best_c = float(a), c
     return best
@@ -180,9 +210,17 @@ class _Shelf:
     def __init__(self, sheet: int, y: float, height: float, left: float):
         self.sheet, self.y, self.height = sheet, y, height
         self.grown: list[tuple[np.ndarray, float]] = []  # outlines of its parts grown by the gap, right end
+        self.reach = np.empty((0, 3))  # per grown outline: its lowest y, highest y, right end
         self.right = -math.inf
         self.ys = y + np.arange(0.5 * PROFILE_STEP, height, PROFILE_STEP)  # profile heights
         self.profile = np.full(len(self.ys), left)  # where a part's left side may start, per height
+
+    def add(self, grown: np.ndarray) -> None:
+        """Keeps a placed part's grown outline (and its reach), and the profile right of it."""
+        right = float(grown[:, 0].max())
+        self.grown.append((grown, right))
+        self.reach = np.vstack([self.reach, [grown[:, 1].min(), grown[:, 1].max(), right]])
+        self.profile = np.fmax(self.profile, np.nan_to_num(_outline_x_at(grown, self.ys, True), nan=-np.inf))
 
 #: [mm] outlines are simplified (Douglas-Peucker) by this for the sliding, and grown by twice this
 #: more than the gap (both sides of a pair simplified), so the simplification can only add distance
@@ -196,6 +234,14 @@ def _coarse(P: np.ndarray) -> np.ndarray:
 
 def _grow(P: np.ndarray, gap: float) -> np.ndarray:
     return np.asarray(Polygon(P).buffer(gap, join_style="mitre", mitre_limit=10.0).exterior.coords)
+
+
+def _grow_all(outlines: list[np.ndarray], gap: float) -> list[np.ndarray]:
+    """`_grow` of each outline, all of the same length, in one call of shapely's vectorised buffer."""
+    grown = shapely.buffer(shapely.polygons(np.stack(outlines)), gap, quad_segs=16, cap_style="round",
+                           join_style="mitre", mitre_limit=10.0)
+    xy, which = shapely.get_coordinates(shapely.get_exterior_ring(grown), return_index=True)
+    return np.split(xy, np.flatnonzero(np.diff(which)) + 1)
 
 
 def _rotate_pts(P: np.ndarray, angle: float) -> np.ndarray:
@@ -222,16 +268,37 @@ def _placement(pid: int, sheet: int, base: np.ndarray, placed: np.ndarray) -> Pl
     return Placement(part=pid, sheet=sheet, angle=angle, x=float(t[0]), y=float(t[1]))
 
 
-def _slide(shelf: _Shelf, members, y: float, x0: float) -> float:
-    """Least x >= x0 at which the item's outlines (lower left at (0, y)) clear every grown outline on
-    the shelf (exact)."""
-    x = x0
-    for _, _, _, C in members:
-        pts = C + [0.0, y]
-        for grown, right in reversed(shelf.grown):
-            if right > x:  # a grown outline left of x cannot push the part (its left side is at x)
-                x = max(x, _shift_past(grown, pts))
-    return x
+def _slides(spots, x0: float) -> list[float]:
+    """Per spot (shelf, item variant, y): the least x >= x0 at which the item's outlines (lower left
+    at (0, y)) clear every grown outline on the shelf (exact).
+
+    Part by part and newest grown outline first, a grown outline pushes x to its `_shift_past` unless
+    it ends left of x (it cannot push the part, whose left side is at x), so mostly the first one
+    decides. The spots go in rounds, each taking the next 1, 2, 4... outlines of every spot that
+    can still push it, all slid in one `shifts_past`, then applied in order with that same test: the
+    same x as one shift at a time. Outlines sharing no height with a part cannot push it."""
+    xs = [x0] * len(spots)
+    queues = []  # per spot: (grown outline, its right end, part outline), in the order they are applied
+    for shelf, (_, members, _, _), y in spots:
+        q = []
+        for _, _, _, C in members:
+            pts = C + [0.0, y]
+            lo, hi, right = shelf.reach.T
+            near = (right > x0) & (np.maximum(lo, pts[:, 1].min()) <= np.minimum(hi, pts[:, 1].max()))
+            q += [shelf.grown[k] + (pts,) for k in np.flatnonzero(near)[::-1].tolist()]
+        queues.append(q)
+    at, take = [0] * len(spots), 1
+    while True:
+        batch = []  # (spot, grown outline, right end, part outline)
+        for i, q in enumerate(queues):
+            batch += [(i, *e) for e in q[at[i]:at[i] + take] if e[1] > xs[i]]
+            at[i] += take
+        if not batch:
+            return xs
+        for (i, _, right, _), s in zip(batch, shifts_past([b[1] for b in batch], [b[3] for b in batch]).tolist()):
+            if right > xs[i]:
+                xs[i] = max(xs[i], s)
+        take *= 2
 
 
 def _waste(shelf: _Shelf, members, x: float, y: float, h: float, low: float) -> float:
@@ -290,6 +357,7 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
     for i in order:
         h = variants[i][0][3]
         best = None  # (waste, shelf, x, y, variant): the placement that wastes least
+        spots = []  # (shelf, variant, y) the item may take
         for shelf in shelves:
             if shelf.height < h - 1e-9:
                 continue
@@ -297,17 +365,15 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
             if not stacked and shelf.height > h + SHELF_SLACK * step:
                 continue
             free = W - m - float(shelf.profile.min())
-            for var in variants[i]:
-                _, members, w, _ = var
-                if w > free + 1e-9:
-                    continue
-                for y in ((shelf.y, shelf.y + shelf.height - h) if stacked else (shelf.y,)):
-                    x = _slide(shelf, members, y, m)
-                    if x + w > W - m + 1e-9:
-                        continue
-                    waste = _waste(shelf, members, x, y, h, low)
-                    if best is None or waste < best[0] - 1e-9:
-                        best = (waste, shelf, x, y, var)
+            spots += [(shelf, var, y) for var in variants[i] if var[2] <= free + 1e-9
+                      for y in ((shelf.y, shelf.y + shelf.height - h) if stacked else (shelf.y,))]
+        for (shelf, var, y), x in zip(spots, _slides(spots, m)):
+            _, members, w, _ = var
+            if x + w > W - m + 1e-9:
+                continue
+            waste = _waste(shelf, members, x, y, h, low)
+            if best is None or waste < best[0] - 1e-9:
+                best = (waste, shelf, x, y, var)
         room = next(((k, tops[k]) for k in range(n_sheets) if tops[k] + h <= H - m + 1e-9), None)
         area = sum(parts[pid].area for pid, _, _ in items[i])
         if best is not None and room is not None and best[0] > WASTE_NEW * area:
@@ -324,10 +390,8 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
         _, shelf, x, y, (_, members, w, _) = best
         for pid, ang, P, C in members:
             placed = P + [x, y]
-            grown = _grow(C + [x, y], gap + 2 * COARSE_TOL)
-            shelf.grown.append((grown, float(grown[:, 0].max())))
+            shelf.add(_grow(C + [x, y], gap + 2 * COARSE_TOL))
             shelf.right = max(shelf.right, float(placed[:, 0].max()))
-            shelf.profile = np.fmax(shelf.profile, np.nan_to_num(_outline_x_at(grown, shelf.ys, True), nan=-np.inf))
             out.append(_placement(pid, shelf.sheet, np.asarray(parts[pid].exterior.coords), placed))
     return sorted(out, key=lambda p: p.part), n_sheets, len(shelves)
 
