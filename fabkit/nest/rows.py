@@ -11,7 +11,8 @@ already there, so slanted sides nest into each other.
 Turning: each part goes a hull edge on the shelf's floor (or that turned by 180 deg), the one with
 the least `ideal_shelf_cell` (its pitch in an endless shelf of its own copies times its height
 plus the gap) among the turns at most `TALLER` times its least height: the gap between sheared
-neighbours is measured square to their sides, so the least height is not always the least area.
+neighbours is measured square to their sides, so the least height is not always the least area
+(`fabkit.nest.turns`).
 
 The sliding is exact for polygons: the parts already on the shelf are grown by the gap with
 mitred corners (shapely `buffer`, never closer than the gap), and the least shift that puts the
@@ -38,118 +39,22 @@ from its left end) when that leaves a longer offcut at its right end: the offcut
 """
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
-import shapely
 from shapely.geometry import Polygon
 
 from fabkit.nest.engines import NestOptions, Placement, grain_angles
-from fabkit.nest.outline_math import shifts_past
+from fabkit.nest.outline_math import grow, rotate_points, shifts_past
+from fabkit.nest.turns import TALLER, ideal_shelf_cell, least_cell_angle, least_height_angle
 
 __all__ = ["nest_rows", "least_height_angle", "least_cell_angle", "ideal_shelf_cell", "SHELF_SLACK", "TALLER", "WASTE_NEW"]
 
 
-def _turned_bounds(part: Polygon, angles: list[float]) -> np.ndarray:
-    """Bounds (x0, y0, x1, y1) of `part` rotated by each of `angles` [deg] about the origin, one a
-    row: the arithmetic of shapely's `affinity.rotate`, so the same numbers, for every angle at once."""
-    cs = []
-    for a in angles:
-        r = a * math.pi / 180.0
-        c, s = math.cos(r), math.sin(r)
-        cs.append((0.0 if abs(c) < 2.5e-16 else c, 0.0 if abs(s) < 2.5e-16 else s))
-    c, s = (np.array(cs).reshape(-1, 2).T)[:, :, None]
-    xoff, yoff = 0.0 - 0.0 * c + 0.0 * s, 0.0 - 0.0 * s - 0.0 * c
-    x, y = shapely.get_coordinates(part).T
-    xp, yp = c * x + (-s) * y + xoff, s * x + c * y + yoff
-    return np.stack([xp.min(axis=1), yp.min(axis=1), xp.max(axis=1), yp.max(axis=1)], axis=1)
-
-
-def _hull_angles(part: Polygon) -> list[float]:
-    """The rotations [deg] turning each hull edge of `part` onto the x axis."""
-    h = np.asarray(part.convex_hull.exterior.coords)
-    return [-math.degrees(math.atan2(y, x)) for x, y in np.diff(h, axis=0) if x or y]
-
-
-def _least_height(angles: list[float], bounds: np.ndarray) -> float:
-    """The first of `angles` with the least bounding-box height (`bounds` per angle), else 0."""
-    best, best_h = 0.0, math.inf
-    for a, h in zip(angles, (bounds[:, 3] - bounds[:, 1]).tolist()):
-        if h < best_h - 1e-9:
-            best, best_h = float(a), h
-    return best
-
-
-def least_height_angle(part: Polygon, angles: list[float] | None = None) -> float:
-    """The rotation [deg] (about the origin) giving `part` its least bounding-box height: one of
-    its hull edges turned onto the x axis, or one of `angles` when given (grain)."""
-    angles = _hull_angles(part) if angles is None else angles
-    return _least_height(angles, _turned_bounds(part, angles))
-
-
-def _shelf_cells(part: Polygon, gap: float, angles: list[float]) -> list[float]:
-    """`ideal_shelf_cell` of `part` at each of `angles`, their outlines grown and slid all at once."""
-    base = np.asarray(part.exterior.coords)
-    Ps, Qs = [], []
-    for a in angles:
-        P, Q = _rotate_pts(base, a), _rotate_pts(base, a + 180.0)
-        Ps.append(P - P.min(axis=0))
-        Qs.append(Q - Q.min(axis=0))
-    n = len(angles)
-    grown = _grow_all(Ps + Qs, gap)
-    s = shifts_past(grown[:n] * 2 + grown[n:], Ps + Qs + Ps).tolist()
-    return [min(s[k], 0.5 * (s[n + k] + s[2 * n + k])) * (np.ptp(Ps[k][:, 1]) + gap) for k in range(n)]
-
-
-def ideal_shelf_cell(part: Polygon, gap: float, angle: float | None = None) -> float:
-    """Area [mm^2] the part takes in an endless shelf of its own copies, turned by `angle` (default:
-    its least height), each the same way up or turned by 180 deg in turn, whichever is shorter:
-    its slid pitch times (its height + the gap). The least a shelf nesting can give it."""
-    return _shelf_cells(part, gap, [least_height_angle(part) if angle is None else angle])[0]
-
-
-#: a part is turned to its least shelf cell only among the angles at most this many times its least
-#: height (a long strip standing across the shelves would leave their lengths empty)
-TALLER = 1.3
 #: a spot on a shelf wasting more than this times the part's area gives way to a new shelf on a
 #: sheet with room for it (measured on the pleated vault: the last sheet 49 % -> 37 % full, the sheets the same)
 WASTE_NEW = 0.45
-
-
-#: [deg] hull edges within this angle of one already tried are not tried again (a curved side's
-#: many nearly collinear hull edges; measured on the pleated vault: the same nesting, twice as fast)
-ANGLE_STEP = 0.2
-
-
-def _distinct(angles: list[float]) -> list[float]:
-    """`angles` less those within `ANGLE_STEP` (mod 360) of an earlier one."""
-    kept: list[float] = []
-    for a in angles:
-        if all(abs((a - k + 180.0) % 360.0 - 180.0) >= ANGLE_STEP for k in kept):
-            kept.append(a)
-    return kept
-
-
-def least_cell_angle(part: Polygon, gap: float, angles: list[float] | None = None,
-                     room: tuple[float, float] = (math.inf, math.inf)) -> float:
-    """The rotation [deg] (a hull edge on the x axis, or one of `angles`) with the least
-    `ideal_shelf_cell` among those where the part fits `room` (width, height; else its least
-    height): a sheared part can waste less with its slanted sides across the shelf, where the gap
-    between neighbours is measured square to them, not along the shelf."""
-    angles = _hull_angles(part) if angles is None else angles
-    best = _least_height(angles, _turned_bounds(part, angles))
-    distinct = _distinct(angles)
-    bounds = _turned_bounds(part, [best] + distinct).tolist()
-    _, lo, _, hi = bounds[0]
-    fits = [a for a, (x0, y0, x1, y1) in zip(distinct, bounds[1:])
-            if not (x1 - x0 > room[0] + 1e-9 or y1 - y0 > min(room[1], TALLER * (hi - lo)) + 1e-9)]
-    best_c = math.inf
-    for a, c in zip(fits, _shelf_cells(part, gap, fits) if fits else []):
-        if c < best_c * (1 - 1e-9):
-            best, best_c = float(a), c
-    return best
-
-
 def _outline_x_at(coords: np.ndarray, ys: np.ndarray, rightmost: bool) -> np.ndarray:
     """Rightmost (or leftmost) x of a closed outline at each height in `ys` (NaN where it has none)."""
     a, b = coords[:-1], coords[1:]
@@ -232,24 +137,6 @@ def _coarse(P: np.ndarray) -> np.ndarray:
     return np.asarray(Polygon(P).simplify(COARSE_TOL, preserve_topology=True).exterior.coords)
 
 
-def _grow(P: np.ndarray, gap: float) -> np.ndarray:
-    return np.asarray(Polygon(P).buffer(gap, join_style="mitre", mitre_limit=10.0).exterior.coords)
-
-
-def _grow_all(outlines: list[np.ndarray], gap: float) -> list[np.ndarray]:
-    """`_grow` of each outline, all of the same length, in one call of shapely's vectorised buffer."""
-    grown = shapely.buffer(shapely.polygons(np.stack(outlines)), gap, quad_segs=16, cap_style="round",
-                           join_style="mitre", mitre_limit=10.0)
-    xy, which = shapely.get_coordinates(shapely.get_exterior_ring(grown), return_index=True)
-    return np.split(xy, np.flatnonzero(np.diff(which)) + 1)
-
-
-def _rotate_pts(P: np.ndarray, angle: float) -> np.ndarray:
-    a = math.radians(angle)
-    R = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
-    return P @ R.T
-
-
 #: a part is tried on the floor of shelves at most this many gaps taller than itself unless the band
 #: left beside it holds another part (on a much taller shelf it wastes more than on one of its own)
 SHELF_SLACK = 6.0
@@ -279,14 +166,23 @@ def _slides(spots, x0: float) -> list[float]:
     same x as one shift at a time. Outlines sharing no height with a part cannot push it."""
     xs = [x0] * len(spots)
     queues = []  # per spot: (grown outline, its right end, part outline), in the order they are applied
-    for shelf, (_, members, _, _), y in spots:
-        q = []
-        for _, _, _, C in members:
-            pts = C + [0.0, y]
-            lo, hi, right = shelf.reach.T
-            near = (right > x0) & (np.maximum(lo, pts[:, 1].min()) <= np.minimum(hi, pts[:, 1].max()))
-            q += [shelf.grown[k] + (pts,) for k in np.flatnonzero(near)[::-1].tolist()]
-        queues.append(q)
+    for shelf, group in itertools.groupby(spots, key=lambda spot: spot[0]):
+        pts = [[C + [0.0, y] for *_, C in members] for _, (_, members, _, _), y in group]
+        flat = [P[:, 1] for ps in pts for P in ps]
+        at = np.cumsum([0] + [len(P) for P in flat[:-1]])
+        low, high = np.minimum.reduceat(np.concatenate(flat), at), np.maximum.reduceat(np.concatenate(flat), at)
+        lo, hi, right = shelf.reach[::-1].T  # newest first
+        near = (right > x0) & (np.maximum(lo, low[:, None]) <= np.minimum(hi, high[:, None]))
+        rows, cols = np.nonzero(near)
+        cols = (len(right) - 1 - cols).tolist()
+        bounds = np.searchsorted(rows, np.arange(len(flat) + 1)).tolist()
+        k = 0
+        for ps in pts:
+            q = []
+            for P in ps:
+                q += [shelf.grown[j] + (P,) for j in cols[bounds[k]:bounds[k + 1]]]
+                k += 1
+            queues.append(q)
     at, take = [0] * len(spots), 1
     while True:
         batch = []  # (spot, grown outline, right end, part outline)
@@ -338,7 +234,7 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
         a = least_cell_angle(hull, gap, grain, (W - 2 * m, H - 2 * m))
         vs = []
         for turn in (a, a + 180.0):
-            rot = [(pid, ang + turn, _rotate_pts(P, turn)) for pid, ang, P in item]
+            rot = [(pid, ang + turn, rotate_points(P, turn)) for pid, ang, P in item]
             allp = np.vstack([P for _, _, P in rot])
             lo = allp.min(axis=0)
             w, h = np.ptp(allp[:, 0]), np.ptp(allp[:, 1])
@@ -390,7 +286,7 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
         _, shelf, x, y, (_, members, w, _) = best
         for pid, ang, P, C in members:
             placed = P + [x, y]
-            shelf.add(_grow(C + [x, y], gap + 2 * COARSE_TOL))
+            shelf.add(grow(C + [x, y], gap + 2 * COARSE_TOL))
             shelf.right = max(shelf.right, float(placed[:, 0].max()))
             out.append(_placement(pid, shelf.sheet, np.asarray(parts[pid].exterior.coords), placed))
     return sorted(out, key=lambda p: p.part), n_sheets, len(shelves)
