@@ -124,3 +124,10 @@ def test_the_turns_cells_equal_the_one_by_one_cells_bit_for_bit(gap):
             assert _bits([T.least_cell_angle(part, gap, None, room)]) == _bits([_least_cell_one_by_one(part, gap, room)])
     chosen = {T.least_cell_angle(part, gap) for part in PARTS}
     assert len(chosen) >= 3  # not all the same turn
+
+
+def test_the_turned_bounds_are_shapely_rotates_bit_for_bit():
+    for part in PARTS:
+        angles = T._hull_angles(part) + [0.0, 90.0, -90.0, 180.0, 270.0, 33.3]  # quarter turns: cos, sin snapped to 0
+        want = [b for a in angles for b in affinity.rotate(part, a, origin=(0.0, 0.0)).bounds]
+        assert _bits(T._turned_bounds(part, angles).ravel()) == _bits(want)
