@@ -46,7 +46,7 @@ import numpy as np
 from shapely.geometry import Polygon
 
 from fabkit.nest.engines import NestOptions, Placement, grain_angles
-from fabkit.nest.outline_math import grow, rotate_points, shifts_past
+from fabkit.nest.outline_math import edges, grow, least, padded, rotate_points, shifts_past
 from fabkit.nest.turns import TALLER, ideal_shelf_cell, least_cell_angle, least_height_angle
 
 __all__ = ["nest_rows", "least_height_angle", "least_cell_angle", "ideal_shelf_cell", "SHELF_SLACK", "TALLER", "WASTE_NEW"]
@@ -197,6 +197,42 @@ def _slides(spots, x0: float) -> list[float]:
         take *= 2
 
 
+#: [mm] taken off a slide's bound from the shelf's profile (`_slide_bounds`): far more than the
+#: rounding of the outlines' interpolation (~1e-12 mm), so the bound is never right of the slide
+BOUND_SLACK = 1e-6
+#: profile heights per spot at which that bound is taken
+BOUND_HEIGHTS = 16
+
+
+def _slide_bounds(spots) -> np.ndarray:
+    """Per spot (shelf, item variant, y): a lower bound of its `_slides` x, so a spot the item cannot
+    fit at needs no exact slide. The slide puts each part right of every grown outline by at least
+    their difference at any height both span (its largest lies at their vertices' heights), and
+    right of x0; so at each profile height (the rightmost grown outline there, or the shelf's left
+    end) in the part's span, x >= profile - the part's left side, taken at `BOUND_HEIGHTS` of
+    them, less `BOUND_SLACK`."""
+    shelves = list(dict.fromkeys(shelf for shelf, _, _ in spots))
+    first = dict(zip(shelves, np.cumsum([0] + [len(shelf.ys) for shelf in shelves]).tolist()))
+    outlines = list({id(C): C for _, (_, members, _, _), _ in spots for *_, C in members}.values())
+    which = {id(C): i for i, C in enumerate(outlines)}
+    rows = [(k, which[id(C)], first[shelf], len(shelf.ys), shelf.y, y, h)
+            for k, (shelf, (_, members, _, h), y) in enumerate(spots) for *_, C in members]
+    out = np.full(len(spots), -np.inf)
+    if not rows:
+        return out
+    owner, ci, start, n, sy, y, h = (np.array(c) for c in zip(*rows))
+    # any profile heights give a bound; these are spread over the part's span (outside it: none)
+    a = np.clip(np.ceil((y - sy) / PROFILE_STEP - 0.5), 0, n - 1).astype(int)
+    b = np.clip(np.floor((y + h - sy) / PROFILE_STEP - 0.5), a, n - 1).astype(int)
+    at = start[:, None] + a[:, None] + np.arange(BOUND_HEIGHTS) * (b - a)[:, None] // (BOUND_HEIGHTS - 1)
+    heights = np.concatenate([shelf.ys for shelf in shelves])[at]
+    profile = np.concatenate([shelf.profile for shelf in shelves])[at]
+    C = padded(outlines)[ci]
+    left = least(heights, edges(C[:, :, 0] + 0.0, C[:, :, 1] + y[:, None]))  # the parts at (0, y); inf: none there
+    np.maximum.at(out, owner, (profile - left).max(axis=1))
+    return out - BOUND_SLACK
+
+
 def _waste(shelf: _Shelf, members, x: float, y: float, h: float, low: float) -> float:
     """Area [mm^2] a placement leaves unusable on the shelf: between the shelf's profile and the
     item's left side over the heights it spans, and the band above or below it when that band is
@@ -263,6 +299,7 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
             free = W - m - float(shelf.profile.min())
             spots += [(shelf, var, y) for var in variants[i] if var[2] <= free + 1e-9
                       for y in ((shelf.y, shelf.y + shelf.height - h) if stacked else (shelf.y,))]
+        spots = [spot for spot, x in zip(spots, _slide_bounds(spots).tolist()) if x + spot[1][2] <= W - m + 1e-9]
         for (shelf, var, y), x in zip(spots, _slides(spots, m)):
             _, members, w, _ = var
             if x + w > W - m + 1e-9:
