@@ -46,7 +46,7 @@ import numpy as np
 from shapely.geometry import Polygon
 
 from fabkit.nest.engines import NestOptions, Placement, grain_angles
-from fabkit.nest.outline_math import edges, grow, least, padded, rotate_points, shifts_past
+from fabkit.nest.outline_math import edges, extremes, grow, least, padded, rotate_points, shifts_past
 from fabkit.nest.turns import TALLER, ideal_shelf_cell, least_cell_angle, least_height_angle
 
 __all__ = ["nest_rows", "least_height_angle", "least_cell_angle", "ideal_shelf_cell", "SHELF_SLACK", "TALLER", "WASTE_NEW"]
@@ -233,28 +233,41 @@ def _slide_bounds(spots) -> np.ndarray:
     return out - BOUND_SLACK
 
 
-def _waste(shelf: _Shelf, members, x: float, y: float, h: float, low: float) -> float:
-    """Area [mm^2] a placement leaves unusable on the shelf: between the shelf's profile and the
-    item's left side over the heights it spans, and the band above or below it when that band is
-    too low for any part (`low`: the least part height) to use later."""
-    span = (shelf.ys >= y) & (shelf.ys <= y + h)
-    if not span.any():
-        return 0.0
-    lefts = np.full(int(span.sum()), np.inf)
-    rights = np.full(int(span.sum()), -np.inf)
-    for _, _, _, C in members:
-        pts = C + [x, y]
-        lefts = np.fmin(lefts, _outline_x_at(pts, shelf.ys[span], False))
-        rights = np.fmax(rights, _outline_x_at(pts, shelf.ys[span], True))
-    base = shelf.profile[span]
-    lefts = np.where(np.isfinite(lefts), lefts, rights)
-    waste = float(np.clip(lefts - base, 0.0, None).sum()) * PROFILE_STEP
-    band = shelf.height - h
-    if 1e-9 < band < low:  # a band too low for any part: wasted along the item's length
-        right = float(np.nanmax(rights)) if np.isfinite(rights).any() else x
-        rest = ~span
-        waste += float(np.clip(right - shelf.profile[rest], 0.0, None).sum()) * PROFILE_STEP
-    return waste
+def _wastes(spots, xs: list[float], h: float, low: float) -> list[float]:
+    """Per spot (shelf, item variant, y) with the item at x: the area [mm^2] the placement leaves
+    unusable on the shelf: between the shelf's profile and the item's left side over the heights it
+    spans, and the band above or below it when that band is too low for any part (`low`: the least
+    part height) to use later. The item's sides at the profile heights are found for every spot at
+    once (`outline_math.extremes`, the numbers of `_outline_x_at`)."""
+    spans = [(shelf.ys >= y) & (shelf.ys <= y + h) for shelf, _, y in spots]
+    rows = [(C + [x, y], shelf.ys[span]) for (shelf, (_, members, _, _), y), x, span in zip(spots, xs, spans)
+            if span.any() for *_, C in members]
+    if rows:
+        P = padded([pts for pts, _ in rows])
+        Y = np.full((len(rows), max(len(ys) for _, ys in rows)), np.nan)  # no outline has a NaN height
+        for r, (_, ys) in enumerate(rows):
+            Y[r, :len(ys)] = ys
+        tops, bottoms = extremes(Y, edges(P[:, :, 0], P[:, :, 1]))
+    out, r = [], 0
+    for (shelf, (_, members, _, _), y), x, span in zip(spots, xs, spans):
+        if not span.any():
+            out.append(0.0)
+            continue
+        n = int(span.sum())
+        lefts, rights = np.full(n, np.inf), np.full(n, -np.inf)
+        for _ in members:
+            lefts, rights = np.fmin(lefts, bottoms[r, :n]), np.fmax(rights, tops[r, :n])
+            r += 1
+        base = shelf.profile[span]
+        lefts = np.where(np.isfinite(lefts), lefts, rights)
+        waste = float(np.clip(lefts - base, 0.0, None).sum()) * PROFILE_STEP
+        band = shelf.height - h
+        if 1e-9 < band < low:  # a band too low for any part: wasted along the item's length
+            right = float(np.nanmax(rights)) if np.isfinite(rights).any() else x
+            rest = ~span
+            waste += float(np.clip(right - shelf.profile[rest], 0.0, None).sum()) * PROFILE_STEP
+        out.append(waste)
+    return out
 
 
 def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon], options: NestOptions,
@@ -300,11 +313,9 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
             spots += [(shelf, var, y) for var in variants[i] if var[2] <= free + 1e-9
                       for y in ((shelf.y, shelf.y + shelf.height - h) if stacked else (shelf.y,))]
         spots = [spot for spot, x in zip(spots, _slide_bounds(spots).tolist()) if x + spot[1][2] <= W - m + 1e-9]
-        for (shelf, var, y), x in zip(spots, _slides(spots, m)):
-            _, members, w, _ = var
-            if x + w > W - m + 1e-9:
-                continue
-            waste = _waste(shelf, members, x, y, h, low)
+        xs = _slides(spots, m)
+        fits = [(spot, x) for spot, x in zip(spots, xs) if x + spot[1][2] <= W - m + 1e-9]
+        for ((shelf, var, y), x), waste in zip(fits, _wastes([f[0] for f in fits], [f[1] for f in fits], h, low)):
             if best is None or waste < best[0] - 1e-9:
                 best = (waste, shelf, x, y, var)
         room = next(((k, tops[k]) for k in range(n_sheets) if tops[k] + h <= H - m + 1e-9), None)
