@@ -84,6 +84,31 @@ def test_batched_slides_equal_the_one_by_one_slides_bit_for_bit():
     want = [_slide_one_by_one(shelf, var[1], y, 5.0) for shelf, var, y in spots]
     assert len(set(want)) >= 10 and min(want) > 5.0  # the parts are pushed to different places
     assert _bits(R._slides(spots, 5.0)) == _bits(want)
+    bounds = R._slide_bounds(spots)
+    assert all(b <= x for b, x in zip(bounds, want))  # never right of the slide: no spot skipped wrongly
+    assert np.median(np.array(want) - bounds) < 20.0  # and close enough to skip most spots that cannot fit
+    h = max(v[3] for _, v, _ in spots)
+    for low in (40.0, 150.0):  # the band above or below the item: usable later, or wasted
+        got = R._wastes(spots, want, h, low)
+        assert _bits(got) == _bits(_waste_one_by_one(shelf, v[1], x, y, h, low) for (shelf, v, y), x in zip(spots, want))
+        assert sum(w > 0 for w in got) >= 10
+
+
+def _waste_one_by_one(shelf, members, x: float, y: float, h: float, low: float) -> float:
+    """The waste of one spot with `rows._outline_x_at`, part by part (`rows._wastes`)."""
+    span = (shelf.ys >= y) & (shelf.ys <= y + h)
+    if not span.any():
+        return 0.0
+    lefts, rights = np.full(int(span.sum()), np.inf), np.full(int(span.sum()), -np.inf)
+    for *_, C in members:
+        lefts = np.fmin(lefts, R._outline_x_at(C + [x, y], shelf.ys[span], False))
+        rights = np.fmax(rights, R._outline_x_at(C + [x, y], shelf.ys[span], True))
+    lefts = np.where(np.isfinite(lefts), lefts, rights)
+    waste = float(np.clip(lefts - shelf.profile[span], 0.0, None).sum()) * R.PROFILE_STEP
+    if 1e-9 < shelf.height - h < low:
+        right = float(np.nanmax(rights)) if np.isfinite(rights).any() else x
+        waste += float(np.clip(right - shelf.profile[~span], 0.0, None).sum()) * R.PROFILE_STEP
+    return waste
 
 
 def _cell_one_by_one(part: Polygon, gap: float, angle: float) -> float:
