@@ -90,7 +90,8 @@ def test_batched_slides_equal_the_one_by_one_slides_bit_for_bit():
     h = max(v[3] for _, v, _ in spots)
     for low in (40.0, 150.0):  # the band above or below the item: usable later, or wasted
         got = R._wastes(spots, want, h, low)
-        assert _bits(got) == _bits(_waste_one_by_one(shelf, v[1], x, y, h, low) for (shelf, v, y), x in zip(spots, want))
+        one_by_one = [_waste_one_by_one(shelf, v[1], x, y, h, low) for (shelf, v, y), x in zip(spots, want)]
+        assert _bits(got) == _bits(one_by_one)
         assert sum(w > 0 for w in got) >= 10
 
 
@@ -146,7 +147,8 @@ def test_the_turns_cells_equal_the_one_by_one_cells_bit_for_bit(gap):
         angles = T._hull_angles(part)
         assert _bits(T._shelf_cells(part, gap, angles)) == _bits(_cell_one_by_one(part, gap, a) for a in angles)
         for room in ((math.inf, math.inf), (250.0, 190.0)):
-            assert _bits([T.least_cell_angle(part, gap, None, room)]) == _bits([_least_cell_one_by_one(part, gap, room)])
+            want = _least_cell_one_by_one(part, gap, room)
+            assert _bits([T.least_cell_angle(part, gap, None, room)]) == _bits([want])
     chosen = {T.least_cell_angle(part, gap) for part in PARTS}
     assert len(chosen) >= 3  # not all the same turn
 

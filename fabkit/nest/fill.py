@@ -21,12 +21,13 @@ for a copy of it (same area and perimeter) until the sheet changes.
 Speed: the outlines have ~15-30 vertices, so part by part the search spends its time in numpy's
 per-call cost. The intervals of a batch of `X_BATCH` x positions against every part near each are
 found in one go (`_Sheet.drops` with `fabkit.nest.outline_math`: the same arithmetic as
-`rows._outline_x_at`, so the same numbers bit for bit), each placed part's outline at its own vertices kept until the sheet changes; and a
-piece's scan stops once no spot left in it can be lower, or as low and further left, than the best
-found (its spots are no lower than its floor and no further left than its next x). Measured on the
-pleated vault's 494 parts: the same placements, the filling 8-10x faster in CPU time than part by
-part. Written here because no well-kept library places polygons into the holes of an existing
-layout (sparrow, `engine="packingsolver"`, nests from scratch).
+`rows._outline_x_at`, so the same numbers bit for bit), each placed part's outline at its own
+vertices kept until the sheet changes; and a piece's scan stops once no spot left in it can be
+lower, or as low and further left, than the best found (its spots are no lower than its floor and
+no further left than its next x). Measured on the pleated vault's 494 parts: the same placements,
+the filling 8-10x faster in CPU time than part by part. Written here because no well-kept library
+places polygons into the holes of an existing layout (sparrow, `engine="packingsolver"`, nests
+from scratch).
 """
 from __future__ import annotations
 

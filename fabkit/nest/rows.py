@@ -36,6 +36,15 @@ goes when all of them move, else its rest is nested again on its own when that i
 the last sheet's parts are nested again with the shelves across the sheet (along its short side,
 from its left end) when that leaves a longer offcut at its right end: the offcut
 (`Nesting.used_length_utilisation`) can go back to stock.
+
+Speed: the outlines have ~15-30 vertices, so one at a time the packing spends its time in numpy's
+per-call cost. The cells of all turns of a part are found at once (`fabkit.nest.turns`), and per
+part all its spots (shelf, either way up, on the floor or from the top) at once: first a lower
+bound of each spot's slide from the shelf's profile (`_slide_bounds`), so a spot the part cannot
+fit at is not slid (on the pleated vault 2130 of 17652 spots are), then the exact slides of the
+rest (`_slides`) and their wastes (`_wastes`) with the arithmetic of one outline at a time
+(`fabkit.nest.outline_math`), so the same placements bit for bit. Measured on the pleated vault's
+494 parts: the shelf packing 3.1-3.2x faster in CPU time (9.4 -> 2.9 s) than spot by spot.
 """
 from __future__ import annotations
 
@@ -216,7 +225,7 @@ def _slide_bounds(spots) -> np.ndarray:
     outlines = list({id(C): C for _, (_, members, _, _), _ in spots for *_, C in members}.values())
     which = {id(C): i for i, C in enumerate(outlines)}
     rows = [(k, which[id(C)], first[shelf], len(shelf.ys), shelf.y, y, h)
-            for k, (shelf, (_, members, _, h), y) in enumerate(spots) for *_, C in members]
+            for k, (shelf, (_, members, _, h), y) in enumerate(spots) if len(shelf.ys) for *_, C in members]
     out = np.full(len(spots), -np.inf)
     if not rows:
         return out
@@ -228,7 +237,7 @@ def _slide_bounds(spots) -> np.ndarray:
     heights = np.concatenate([shelf.ys for shelf in shelves])[at]
     profile = np.concatenate([shelf.profile for shelf in shelves])[at]
     C = padded(outlines)[ci]
-    left = least(heights, edges(C[:, :, 0] + 0.0, C[:, :, 1] + y[:, None]))  # the parts at (0, y); inf: none there
+    left = least(heights, edges(C[:, :, 0] + 0.0, C[:, :, 1] + y[:, None]))  # parts at (0, y); inf: none there
     np.maximum.at(out, owner, (profile - left).max(axis=1))
     return out - BOUND_SLACK
 
