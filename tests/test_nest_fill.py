@@ -12,6 +12,7 @@ from fabkit.nest import NestOptions
 from fabkit.nest import rows as R
 from fabkit.nest.engines import Placement, place
 from fabkit.nest.fill import _Sheet, fill_holes
+from fabkit.nest.outline_math import rotate_points
 
 #: 800 x 500 mm sheets, a 5.2 mm gap, 10 mm to the edge
 OPTS = NestOptions(sheet=(800.0, 500.0), spacing=5.0, kerf=0.2, edge=10.0)
@@ -77,7 +78,7 @@ def _drop_one_x(sheet: _Sheet, P: np.ndarray, x: float, lo: float, hi: float) ->
 @pytest.mark.parametrize("part, angle", [(3, 0.0), (4, 270.0), (5, 308.6598082540901), (7, 90.0), (0, 90.0)])
 def test_the_batched_drop_gives_the_per_part_shifts_bit_for_bit(part, angle):
     sheet = _Sheet([place(PARTS[p.part], p) for p in START if p.sheet == 0], OPTS)
-    P = R._rotate_pts(np.asarray(PARTS[part].exterior.coords), angle)
+    P = rotate_points(np.asarray(PARTS[part].exterior.coords), angle)
     P = R._coarse(P - P.min(axis=0))
     W, H = OPTS.sheet
     lo, hi = OPTS.edge, H - OPTS.edge - float(np.ptp(P[:, 1]))

@@ -20,13 +20,14 @@ for a copy of it (same area and perimeter) until the sheet changes.
 
 Speed: the outlines have ~15-30 vertices, so part by part the search spends its time in numpy's
 per-call cost. The intervals of a batch of `X_BATCH` x positions against every part near each are
-found in one go (`_Sheet.drops`, the same arithmetic as `rows._outline_x_at`, so the same numbers
-bit for bit), each placed part's outline at its own vertices kept until the sheet changes; and a
-piece's scan stops once no spot left in it can be lower, or as low and further left, than the best
-found (its spots are no lower than its floor and no further left than its next x). Measured on the
-pleated vault's 494 parts: the same placements, the filling 8-10x faster in CPU time than part by
-part. Written here because no well-kept library places polygons into the holes of an existing
-layout (sparrow, `engine="packingsolver"`, nests from scratch).
+found in one go (`_Sheet.drops` with `fabkit.nest.outline_math`: the same arithmetic as
+`rows._outline_x_at`, so the same numbers bit for bit), each placed part's outline at its own
+vertices kept until the sheet changes; and a piece's scan stops once no spot left in it can be
+lower, or as low and further left, than the best found (its spots are no lower than its floor and
+no further left than its next x). Measured on the pleated vault's 494 parts: the same placements,
+the filling 8-10x faster in CPU time than part by part. Written here because no well-kept library
+places polygons into the holes of an existing layout (sparrow, `engine="packingsolver"`, nests
+from scratch).
 """
 from __future__ import annotations
 
@@ -39,6 +40,8 @@ from shapely.ops import unary_union
 
 from fabkit.nest import rows as R
 from fabkit.nest.engines import NestOptions, Placement, place
+from fabkit.nest.outline_math import edges, extremes, grow, padded, rotate_points
+from fabkit.nest.turns import distinct_angles
 
 __all__ = ["fill_holes", "X_STEP"]
 
@@ -51,36 +54,7 @@ def _turns(part: Polygon, grain) -> list[float]:
         return list(grain)
     h = np.asarray(part.convex_hull.exterior.coords)
     base = [-math.degrees(math.atan2(y, x)) for x, y in np.diff(h, axis=0) if x or y]
-    return R._distinct([a % 360.0 for a in base] + [(a + 90.0) % 360.0 for a in base])
-
-
-def _edges(V: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The edges of closed outlines, one a row (values `V`, heights `H`, each (rows, vertices)), as
-    (low, high, start height, height step, start value, value step), each (rows, edges). An edge
-    along a height (no height step) becomes a point at its start vertex; its end vertex is the next
-    edge's start, so every outline's extremes keep every vertex value at its height."""
-    y0, y1 = H[:, :-1], H[:, 1:]
-    flat = y0 == y1
-    return (np.minimum(y0, y1), np.maximum(y0, y1), y0, np.where(flat, 1.0, y1 - y0), V[:, :-1],
-            np.where(flat, 0.0, V[:, 1:] - V[:, :-1]))
-
-
-def _extremes(Y: np.ndarray, E: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """Greatest and least value of each row's outline (`_edges`) at each of its heights `Y` (rows,
-    heights): -inf and inf where it has none. The same arithmetic as `rows._outline_x_at`, so the
-    same numbers, for many outlines at once."""
-    lo, hi, y0, dy, v0, dv = (e[:, None, :] for e in E)
-    Yb = Y[:, :, None]
-    cross = (Yb >= lo) & (Yb <= hi)
-    v = v0 + ((Yb - y0) / dy) * dv
-    return np.where(cross, v, -np.inf).max(axis=2), np.where(cross, v, np.inf).min(axis=2)
-
-
-def _padded(outlines: list[np.ndarray]) -> np.ndarray:
-    """The outlines as one (outlines, most vertices, 2) array, each padded with its closing vertex
-    (a repeated vertex adds no edge and no height)."""
-    n = max(len(G) for G in outlines)
-    return np.stack([np.vstack([G, np.repeat(G[-1:], n - len(G), axis=0)]) for G in outlines])
+    return distinct_angles([a % 360.0 for a in base] + [(a + 90.0) % 360.0 for a in base])
 
 
 #: x positions searched at once (`_Sheet.drops`): enough to share numpy's per-call cost, few
@@ -96,21 +70,21 @@ class _Sheet:
     def __init__(self, geoms: list[Polygon], options: NestOptions):
         self.options = options
         self.geoms = list(geoms)
-        self.grown = [R._grow(R._coarse(np.asarray(g.exterior.coords)), options.gap + 2 * R.COARSE_TOL)[:, ::-1]
+        self.grown = [grow(R._coarse(np.asarray(g.exterior.coords)), options.gap + 2 * R.COARSE_TOL)[:, ::-1]
                       for g in geoms]  # x and y swapped: "right of" is "above"
         self._free = None
         self._changed()
 
     def _changed(self) -> None:
         self.bx = np.array([[G[:, 1].min(), G[:, 1].max(), G[:, 0].min(), G[:, 0].max()] for G in self.grown]).reshape(-1, 4)
-        G = _padded(self.grown)
+        G = padded(self.grown)
         self.heights, self.values = G[:, :, 1], G[:, :, 0]
-        self.edges = _edges(self.values, self.heights)
-        self.top, self.bottom = _extremes(self.heights, self.edges)  # each outline at its own vertices
+        self.edges = edges(self.values, self.heights)
+        self.top, self.bottom = extremes(self.heights, self.edges)  # each outline at its own vertices
 
     def add(self, g: Polygon) -> None:
         self.geoms.append(g)
-        self.grown.append(R._grow(R._coarse(np.asarray(g.exterior.coords)), self.options.gap + 2 * R.COARSE_TOL)[:, ::-1])
+        self.grown.append(grow(R._coarse(np.asarray(g.exterior.coords)), self.options.gap + 2 * R.COARSE_TOL)[:, ::-1])
         self._free = None
         self._changed()
 
@@ -144,8 +118,8 @@ class _Sheet:
         upright = np.nonzero((b[:, 3] > lo) & (b[:, 2] < hi + h))[0]  # those near it in y, at any x
         QH = P[:, 0] + xs[:, None]  # per x: the part's vertices' heights (x), values (y)
         QV = np.broadcast_to(P[:, 1], QH.shape)
-        QE = _edges(QV, QH)
-        q_top, q_bottom = _extremes(QH, QE)
+        QE = edges(QV, QH)
+        q_top, q_bottom = extremes(QH, QE)
         near = (b[upright, 1] >= xs[:, None]) & (b[upright, 0] <= (xs + w)[:, None])
         jj, kk = np.nonzero(near)
         kk = upright[kk]
@@ -153,8 +127,8 @@ class _Sheet:
         hi_p = np.minimum(b[kk, 1], QH.max(axis=1)[jj])
         keep = lo_p <= hi_p
         jj, kk, lo_p, hi_p = jj[keep], kk[keep], lo_p[keep], hi_p[keep]
-        g_top_q, g_bottom_q = _extremes(QH[jj], tuple(e[kk] for e in self.edges))
-        q_top_g, q_bottom_g = _extremes(self.heights[kk], tuple(e[jj] for e in QE))
+        g_top_q, g_bottom_q = extremes(QH[jj], tuple(e[kk] for e in self.edges))
+        q_top_g, q_bottom_g = extremes(self.heights[kk], tuple(e[jj] for e in QE))
         Hs = np.concatenate([self.heights[kk], QH[jj]], axis=1)
         span = (Hs >= lo_p[:, None]) & (Hs <= hi_p[:, None])
         up = np.where(span, np.concatenate([self.top[kk], g_top_q], axis=1)
@@ -202,10 +176,10 @@ def _spot(part: Polygon, sheet: _Sheet, grain) -> Placement | None:
     best = None
     base = np.asarray(part.exterior.coords)
     for a in _turns(part, grain):
-        P = R._rotate_pts(base, a)
+        P = rotate_points(base, a)
         lo_pt = P.min(axis=0)
         P = P - lo_pt
-        c = R._rotate_pts(centre[None, :], a)[0] - lo_pt
+        c = rotate_points(centre[None, :], a)[0] - lo_pt
         w, h = float(np.ptp(P[:, 0])), float(np.ptp(P[:, 1]))
         Pc = R._coarse(P)
         for piece, (ex0, ey0, ex1, ey1) in shrunk:

@@ -11,7 +11,8 @@ already there, so slanted sides nest into each other.
 Turning: each part goes a hull edge on the shelf's floor (or that turned by 180 deg), the one with
 the least `ideal_shelf_cell` (its pitch in an endless shelf of its own copies times its height
 plus the gap) among the turns at most `TALLER` times its least height: the gap between sheared
-neighbours is measured square to their sides, so the least height is not always the least area.
+neighbours is measured square to their sides, so the least height is not always the least area
+(`fabkit.nest.turns`).
 
 The sliding is exact for polygons: the parts already on the shelf are grown by the gap with
 mitred corners (shapely `buffer`, never closer than the gap), and the least shift that puts the
@@ -35,91 +36,35 @@ goes when all of them move, else its rest is nested again on its own when that i
 the last sheet's parts are nested again with the shelves across the sheet (along its short side,
 from its left end) when that leaves a longer offcut at its right end: the offcut
 (`Nesting.used_length_utilisation`) can go back to stock.
+
+Speed: the outlines have ~15-30 vertices, so one at a time the packing spends its time in numpy's
+per-call cost. The cells of all turns of a part are found at once (`fabkit.nest.turns`), and per
+part all its spots (shelf, either way up, on the floor or from the top) at once: first a lower
+bound of each spot's slide from the shelf's profile (`_slide_bounds`), so a spot the part cannot
+fit at is not slid (on the pleated vault 2130 of 17652 spots are), then the exact slides of the
+rest (`_slides`) and their wastes (`_wastes`) with the arithmetic of one outline at a time
+(`fabkit.nest.outline_math`), so the same placements bit for bit. Measured on the pleated vault's
+494 parts, the two alternated in one process: the shelf packing ~2.9x faster in CPU time than spot
+by spot (8.7-9.7 -> 3.0-3.2 s).
 """
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
-from shapely import affinity
 from shapely.geometry import Polygon
 
 from fabkit.nest.engines import NestOptions, Placement, grain_angles
+from fabkit.nest.outline_math import edges, extremes, grow, least, padded, rotate_points, shifts_past
+from fabkit.nest.turns import TALLER, ideal_shelf_cell, least_cell_angle, least_height_angle
 
 __all__ = ["nest_rows", "least_height_angle", "least_cell_angle", "ideal_shelf_cell", "SHELF_SLACK", "TALLER", "WASTE_NEW"]
 
 
-def least_height_angle(part: Polygon, angles: list[float] | None = None) -> float:
-    """The rotation [deg] (about the origin) giving `part` its least bounding-box height: one of
-    its hull edges turned onto the x axis, or one of `angles` when given (grain)."""
-    if angles is None:
-        h = np.asarray(part.convex_hull.exterior.coords)
-        d = np.diff(h, axis=0)
-        angles = [-math.degrees(math.atan2(y, x)) for x, y in d if x or y]
-    best, best_h = 0.0, math.inf
-    for a in angles:
-        _, y0, _, y1 = affinity.rotate(part, a, origin=(0.0, 0.0)).bounds
-        if y1 - y0 < best_h - 1e-9:
-            best, best_h = float(a), y1 - y0
-    return best
-
-
-def ideal_shelf_cell(part: Polygon, gap: float, angle: float | None = None) -> float:
-    """Area [mm^2] the part takes in an endless shelf of its own copies, turned by `angle` (default:
-    its least height), each the same way up or turned by 180 deg in turn, whichever is shorter:
-    its slid pitch times (its height + the gap). The least a shelf nesting can give it."""
-    a = least_height_angle(part) if angle is None else angle
-    P = _rotate_pts(np.asarray(part.exterior.coords), a)
-    Q = _rotate_pts(np.asarray(part.exterior.coords), a + 180.0)
-    P, Q = P - P.min(axis=0), Q - Q.min(axis=0)
-    G, GQ = _grow(P, gap), _grow(Q, gap)
-    pitch = min(_shift_past(G, P), 0.5 * (_shift_past(G, Q) + _shift_past(GQ, P)))
-    return pitch * (np.ptp(P[:, 1]) + gap)
-
-
-#: a part is turned to its least shelf cell only among the angles at most this many times its least
-#: height (a long strip standing across the shelves would leave their lengths empty)
-TALLER = 1.3
 #: a spot on a shelf wasting more than this times the part's area gives way to a new shelf on a
 #: sheet with room for it (measured on the pleated vault: the last sheet 49 % -> 37 % full, the sheets the same)
 WASTE_NEW = 0.45
-
-
-#: [deg] hull edges within this angle of one already tried are not tried again (a curved side's
-#: many nearly collinear hull edges; measured on the pleated vault: the same nesting, twice as fast)
-ANGLE_STEP = 0.2
-
-
-def _distinct(angles: list[float]) -> list[float]:
-    """`angles` less those within `ANGLE_STEP` (mod 360) of an earlier one."""
-    kept: list[float] = []
-    for a in angles:
-        if all(abs((a - k + 180.0) % 360.0 - 180.0) >= ANGLE_STEP for k in kept):
-            kept.append(a)
-    return kept
-
-
-def least_cell_angle(part: Polygon, gap: float, angles: list[float] | None = None,
-                     room: tuple[float, float] = (math.inf, math.inf)) -> float:
-    """The rotation [deg] (a hull edge on the x axis, or one of `angles`) with the least
-    `ideal_shelf_cell` among those where the part fits `room` (width, height; else its least
-    height): a sheared part can waste less with its slanted sides across the shelf, where the gap
-    between neighbours is measured square to them, not along the shelf."""
-    if angles is None:
-        h = np.asarray(part.convex_hull.exterior.coords)
-        angles = [-math.degrees(math.atan2(y, x)) for x, y in np.diff(h, axis=0) if x or y]
-    best, best_c = least_height_angle(part, angles), math.inf
-    _, lo, _, hi = affinity.rotate(part, best, origin=(0.0, 0.0)).bounds
-    for a in _distinct(angles):
-        x0, y0, x1, y1 = affinity.rotate(part, a, origin=(0.0, 0.0)).bounds
-        if x1 - x0 > room[0] + 1e-9 or y1 - y0 > min(room[1], TALLER * (hi - lo)) + 1e-9:
-            continue
-        c = ideal_shelf_cell(part, gap, a)
-        if c < best_c * (1 - 1e-9):
-            best, best_c = float(a), c
-    return best
-
-
 def _outline_x_at(coords: np.ndarray, ys: np.ndarray, rightmost: bool) -> np.ndarray:
     """Rightmost (or leftmost) x of a closed outline at each height in `ys` (NaN where it has none)."""
     a, b = coords[:-1], coords[1:]
@@ -180,9 +125,17 @@ class _Shelf:
     def __init__(self, sheet: int, y: float, height: float, left: float):
         self.sheet, self.y, self.height = sheet, y, height
         self.grown: list[tuple[np.ndarray, float]] = []  # outlines of its parts grown by the gap, right end
+        self.reach = np.empty((0, 3))  # per grown outline: its lowest y, highest y, right end
         self.right = -math.inf
         self.ys = y + np.arange(0.5 * PROFILE_STEP, height, PROFILE_STEP)  # profile heights
         self.profile = np.full(len(self.ys), left)  # where a part's left side may start, per height
+
+    def add(self, grown: np.ndarray) -> None:
+        """Keeps a placed part's grown outline (and its reach), and the profile right of it."""
+        right = float(grown[:, 0].max())
+        self.grown.append((grown, right))
+        self.reach = np.vstack([self.reach, [grown[:, 1].min(), grown[:, 1].max(), right]])
+        self.profile = np.fmax(self.profile, np.nan_to_num(_outline_x_at(grown, self.ys, True), nan=-np.inf))
 
 #: [mm] outlines are simplified (Douglas-Peucker) by this for the sliding, and grown by twice this
 #: more than the gap (both sides of a pair simplified), so the simplification can only add distance
@@ -192,16 +145,6 @@ COARSE_TOL = 0.05
 def _coarse(P: np.ndarray) -> np.ndarray:
     """The outline with (nearly) collinear vertices removed, within `COARSE_TOL` of it."""
     return np.asarray(Polygon(P).simplify(COARSE_TOL, preserve_topology=True).exterior.coords)
-
-
-def _grow(P: np.ndarray, gap: float) -> np.ndarray:
-    return np.asarray(Polygon(P).buffer(gap, join_style="mitre", mitre_limit=10.0).exterior.coords)
-
-
-def _rotate_pts(P: np.ndarray, angle: float) -> np.ndarray:
-    a = math.radians(angle)
-    R = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
-    return P @ R.T
 
 
 #: a part is tried on the floor of shelves at most this many gaps taller than itself unless the band
@@ -222,40 +165,119 @@ def _placement(pid: int, sheet: int, base: np.ndarray, placed: np.ndarray) -> Pl
     return Placement(part=pid, sheet=sheet, angle=angle, x=float(t[0]), y=float(t[1]))
 
 
-def _slide(shelf: _Shelf, members, y: float, x0: float) -> float:
-    """Least x >= x0 at which the item's outlines (lower left at (0, y)) clear every grown outline on
-    the shelf (exact)."""
-    x = x0
-    for _, _, _, C in members:
-        pts = C + [0.0, y]
-        for grown, right in reversed(shelf.grown):
-            if right > x:  # a grown outline left of x cannot push the part (its left side is at x)
-                x = max(x, _shift_past(grown, pts))
-    return x
+def _slides(spots, x0: float) -> list[float]:
+    """Per spot (shelf, item variant, y): the least x >= x0 at which the item's outlines (lower left
+    at (0, y)) clear every grown outline on the shelf (exact).
+
+    Part by part and newest grown outline first, a grown outline pushes x to its `_shift_past` unless
+    it ends left of x (it cannot push the part, whose left side is at x), so mostly the first one
+    decides. The spots go in rounds, each taking the next 1, 2, 4... outlines of every spot that
+    can still push it, all slid in one `shifts_past`, then applied in order with that same test: the
+    same x as one shift at a time. Outlines sharing no height with a part cannot push it."""
+    xs = [x0] * len(spots)
+    queues = []  # per spot: (grown outline, its right end, part outline), in the order they are applied
+    for shelf, group in itertools.groupby(spots, key=lambda spot: spot[0]):
+        pts = [[C + [0.0, y] for *_, C in members] for _, (_, members, _, _), y in group]
+        flat = [P[:, 1] for ps in pts for P in ps]
+        at = np.cumsum([0] + [len(P) for P in flat[:-1]])
+        low, high = np.minimum.reduceat(np.concatenate(flat), at), np.maximum.reduceat(np.concatenate(flat), at)
+        lo, hi, right = shelf.reach[::-1].T  # newest first
+        near = (right > x0) & (np.maximum(lo, low[:, None]) <= np.minimum(hi, high[:, None]))
+        rows, cols = np.nonzero(near)
+        cols = (len(right) - 1 - cols).tolist()
+        bounds = np.searchsorted(rows, np.arange(len(flat) + 1)).tolist()
+        k = 0
+        for ps in pts:
+            q = []
+            for P in ps:
+                q += [shelf.grown[j] + (P,) for j in cols[bounds[k]:bounds[k + 1]]]
+                k += 1
+            queues.append(q)
+    at, take = [0] * len(spots), 1
+    while True:
+        batch = []  # (spot, grown outline, right end, part outline)
+        for i, q in enumerate(queues):
+            batch += [(i, *e) for e in q[at[i]:at[i] + take] if e[1] > xs[i]]
+            at[i] += take
+        if not batch:
+            return xs
+        for (i, _, right, _), s in zip(batch, shifts_past([b[1] for b in batch], [b[3] for b in batch]).tolist()):
+            if right > xs[i]:
+                xs[i] = max(xs[i], s)
+        take *= 2
 
 
-def _waste(shelf: _Shelf, members, x: float, y: float, h: float, low: float) -> float:
-    """Area [mm^2] a placement leaves unusable on the shelf: between the shelf's profile and the
-    item's left side over the heights it spans, and the band above or below it when that band is
-    too low for any part (`low`: the least part height) to use later."""
-    span = (shelf.ys >= y) & (shelf.ys <= y + h)
-    if not span.any():
-        return 0.0
-    lefts = np.full(int(span.sum()), np.inf)
-    rights = np.full(int(span.sum()), -np.inf)
-    for _, _, _, C in members:
-        pts = C + [x, y]
-        lefts = np.fmin(lefts, _outline_x_at(pts, shelf.ys[span], False))
-        rights = np.fmax(rights, _outline_x_at(pts, shelf.ys[span], True))
-    base = shelf.profile[span]
-    lefts = np.where(np.isfinite(lefts), lefts, rights)
-    waste = float(np.clip(lefts - base, 0.0, None).sum()) * PROFILE_STEP
-    band = shelf.height - h
-    if 1e-9 < band < low:  # a band too low for any part: wasted along the item's length
-        right = float(np.nanmax(rights)) if np.isfinite(rights).any() else x
-        rest = ~span
-        waste += float(np.clip(right - shelf.profile[rest], 0.0, None).sum()) * PROFILE_STEP
-    return waste
+#: [mm] taken off a slide's bound from the shelf's profile (`_slide_bounds`): far more than the
+#: rounding of the outlines' interpolation (~1e-12 mm), so the bound is never right of the slide
+BOUND_SLACK = 1e-6
+#: profile heights per spot at which that bound is taken
+BOUND_HEIGHTS = 16
+
+
+def _slide_bounds(spots) -> np.ndarray:
+    """Per spot (shelf, item variant, y): a lower bound of its `_slides` x, so a spot the item cannot
+    fit at needs no exact slide. The slide puts each part right of every grown outline by at least
+    their difference at any height both span (its largest lies at their vertices' heights), and
+    right of x0; so at each profile height (the rightmost grown outline there, or the shelf's left
+    end) in the part's span, x >= profile - the part's left side, taken at `BOUND_HEIGHTS` of
+    them, less `BOUND_SLACK`."""
+    shelves = list(dict.fromkeys(shelf for shelf, _, _ in spots))
+    first = dict(zip(shelves, np.cumsum([0] + [len(shelf.ys) for shelf in shelves]).tolist()))
+    outlines = list({id(C): C for _, (_, members, _, _), _ in spots for *_, C in members}.values())
+    which = {id(C): i for i, C in enumerate(outlines)}
+    rows = [(k, which[id(C)], first[shelf], len(shelf.ys), shelf.y, y, h)
+            for k, (shelf, (_, members, _, h), y) in enumerate(spots) if len(shelf.ys) for *_, C in members]
+    out = np.full(len(spots), -np.inf)
+    if not rows:
+        return out
+    owner, ci, start, n, sy, y, h = (np.array(c) for c in zip(*rows))
+    # any profile heights give a bound; these are spread over the part's span (outside it: none)
+    a = np.clip(np.ceil((y - sy) / PROFILE_STEP - 0.5), 0, n - 1).astype(int)
+    b = np.clip(np.floor((y + h - sy) / PROFILE_STEP - 0.5), a, n - 1).astype(int)
+    at = start[:, None] + a[:, None] + np.arange(BOUND_HEIGHTS) * (b - a)[:, None] // (BOUND_HEIGHTS - 1)
+    heights = np.concatenate([shelf.ys for shelf in shelves])[at]
+    profile = np.concatenate([shelf.profile for shelf in shelves])[at]
+    C = padded(outlines)[ci]
+    left = least(heights, edges(C[:, :, 0] + 0.0, C[:, :, 1] + y[:, None]))  # parts at (0, y); inf: none there
+    np.maximum.at(out, owner, (profile - left).max(axis=1))
+    return out - BOUND_SLACK
+
+
+def _wastes(spots, xs: list[float], h: float, low: float) -> list[float]:
+    """Per spot (shelf, item variant, y) with the item at x: the area [mm^2] the placement leaves
+    unusable on the shelf: between the shelf's profile and the item's left side over the heights it
+    spans, and the band above or below it when that band is too low for any part (`low`: the least
+    part height) to use later. The item's sides at the profile heights are found for every spot at
+    once (`outline_math.extremes`, the numbers of `_outline_x_at`)."""
+    spans = [(shelf.ys >= y) & (shelf.ys <= y + h) for shelf, _, y in spots]
+    rows = [(C + [x, y], shelf.ys[span]) for (shelf, (_, members, _, _), y), x, span in zip(spots, xs, spans)
+            if span.any() for *_, C in members]
+    if rows:
+        P = padded([pts for pts, _ in rows])
+        Y = np.full((len(rows), max(len(ys) for _, ys in rows)), np.nan)  # no outline has a NaN height
+        for r, (_, ys) in enumerate(rows):
+            Y[r, :len(ys)] = ys
+        tops, bottoms = extremes(Y, edges(P[:, :, 0], P[:, :, 1]))
+    out, r = [], 0
+    for (shelf, (_, members, _, _), y), x, span in zip(spots, xs, spans):
+        if not span.any():
+            out.append(0.0)
+            continue
+        n = int(span.sum())
+        lefts, rights = np.full(n, np.inf), np.full(n, -np.inf)
+        for _ in members:
+            lefts, rights = np.fmin(lefts, bottoms[r, :n]), np.fmax(rights, tops[r, :n])
+            r += 1
+        base = shelf.profile[span]
+        lefts = np.where(np.isfinite(lefts), lefts, rights)
+        waste = float(np.clip(lefts - base, 0.0, None).sum()) * PROFILE_STEP
+        band = shelf.height - h
+        if 1e-9 < band < low:  # a band too low for any part: wasted along the item's length
+            right = float(np.nanmax(rights)) if np.isfinite(rights).any() else x
+            rest = ~span
+            waste += float(np.clip(right - shelf.profile[rest], 0.0, None).sum()) * PROFILE_STEP
+        out.append(waste)
+    return out
 
 
 def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon], options: NestOptions,
@@ -271,7 +293,7 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
         a = least_cell_angle(hull, gap, grain, (W - 2 * m, H - 2 * m))
         vs = []
         for turn in (a, a + 180.0):
-            rot = [(pid, ang + turn, _rotate_pts(P, turn)) for pid, ang, P in item]
+            rot = [(pid, ang + turn, rotate_points(P, turn)) for pid, ang, P in item]
             allp = np.vstack([P for _, _, P in rot])
             lo = allp.min(axis=0)
             w, h = np.ptp(allp[:, 0]), np.ptp(allp[:, 1])
@@ -290,6 +312,7 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
     for i in order:
         h = variants[i][0][3]
         best = None  # (waste, shelf, x, y, variant): the placement that wastes least
+        spots = []  # (shelf, variant, y) the item may take
         for shelf in shelves:
             if shelf.height < h - 1e-9:
                 continue
@@ -297,17 +320,14 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
             if not stacked and shelf.height > h + SHELF_SLACK * step:
                 continue
             free = W - m - float(shelf.profile.min())
-            for var in variants[i]:
-                _, members, w, _ = var
-                if w > free + 1e-9:
-                    continue
-                for y in ((shelf.y, shelf.y + shelf.height - h) if stacked else (shelf.y,)):
-                    x = _slide(shelf, members, y, m)
-                    if x + w > W - m + 1e-9:
-                        continue
-                    waste = _waste(shelf, members, x, y, h, low)
-                    if best is None or waste < best[0] - 1e-9:
-                        best = (waste, shelf, x, y, var)
+            spots += [(shelf, var, y) for var in variants[i] if var[2] <= free + 1e-9
+                      for y in ((shelf.y, shelf.y + shelf.height - h) if stacked else (shelf.y,))]
+        spots = [spot for spot, x in zip(spots, _slide_bounds(spots).tolist()) if x + spot[1][2] <= W - m + 1e-9]
+        xs = _slides(spots, m)
+        fits = [(spot, x) for spot, x in zip(spots, xs) if x + spot[1][2] <= W - m + 1e-9]
+        for ((shelf, var, y), x), waste in zip(fits, _wastes([f[0] for f in fits], [f[1] for f in fits], h, low)):
+            if best is None or waste < best[0] - 1e-9:
+                best = (waste, shelf, x, y, var)
         room = next(((k, tops[k]) for k in range(n_sheets) if tops[k] + h <= H - m + 1e-9), None)
         area = sum(parts[pid].area for pid, _, _ in items[i])
         if best is not None and room is not None and best[0] > WASTE_NEW * area:
@@ -324,10 +344,8 @@ def _pack(items: list[list[tuple[int, float, np.ndarray]]], parts: list[Polygon]
         _, shelf, x, y, (_, members, w, _) = best
         for pid, ang, P, C in members:
             placed = P + [x, y]
-            grown = _grow(C + [x, y], gap + 2 * COARSE_TOL)
-            shelf.grown.append((grown, float(grown[:, 0].max())))
+            shelf.add(grow(C + [x, y], gap + 2 * COARSE_TOL))
             shelf.right = max(shelf.right, float(placed[:, 0].max()))
-            shelf.profile = np.fmax(shelf.profile, np.nan_to_num(_outline_x_at(grown, shelf.ys, True), nan=-np.inf))
             out.append(_placement(pid, shelf.sheet, np.asarray(parts[pid].exterior.coords), placed))
     return sorted(out, key=lambda p: p.part), n_sheets, len(shelves)
 
