@@ -45,6 +45,7 @@ def pytest_collection_modifyitems(session, config, items):
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: file order kept within
 
 
+@pytest.hookimpl(optionalhook=True)  # an xdist hook: unknown under `-p no:xdist`
 def pytest_xdist_make_scheduler(config, log):
     """`--dist loadfile`, with the `REALTIME` files one unit of work (one worker, in order)."""
     if config.getvalue("dist") != "loadfile":

@@ -67,7 +67,7 @@ def wait_mid_path(standin, proc, progress=10):
 def worker_pid(log) -> int:
     deadline = time.monotonic() + 5
     while time.monotonic() < deadline:
-        for line in log.read_text().splitlines():
+        for line in log.read_text().split("\n")[:-1]:  # complete lines: the sender may be writing the last
             e = json.loads(line)
             if e.get("worker") == "started":
                 return int(e["pid"])

@@ -80,7 +80,9 @@ def _send(program, checked, standins, tmp_path, *extra, cell_hosts: bool = False
 
 
 def _events(log: Path) -> list[dict]:
-    return [json.loads(line) for line in log.read_text().splitlines() if line.strip()]
+    """The send log's events so far: its complete lines (the sender may be writing the last one)."""
+    lines = log.read_text().split("\n")[:-1]
+    return [json.loads(line) for line in lines if line.strip()]
 
 
 def _synced(events, atp, sync) -> None:
