@@ -6,12 +6,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from vault_panels import first_vault_panel
 
-from fabkit.generate.pleated import pleated_vault
-from fabkit.panels.layout import layout_panels
 from fabkit.panels.production import ProductionOptions, program_task, refold_and_program, stock
-from fabkit.panels.surface import GridSurface, grid_from_topology
-from fabkit.panels.workflow import PanelsOptions, run_panels
 
 ROOT = Path(__file__).resolve().parents[1]
 CELL = ROOT / "cells" / "ur5e_bench.toml"
@@ -22,14 +19,8 @@ JAW = "footprint = [[-0.012, -0.008], [0.012, -0.008], [0.012, 0.008], [-0.012, 
 def task():
     from sim.production import program_panel
 
-    mesh = pleated_vault(rows=2, length=0.5, radius=0.6, arc=np.radians(60.0), fold=np.radians(40.0), columns=8,
-                         rows_per_band=8)
-    index, _ = grid_from_topology(mesh)
-    layout = layout_panels(GridSurface(points=mesh.vertices[index], mesh=mesh, index=index), cols=2,
-                           columns_per_panel=4)
-    geo = run_panels(layout, PanelsOptions())
-    p = layout.panels[0]
-    return program_task(p, geo.results[p.id], ProductionOptions(), CELL.read_text(), CELL.name, stock(), program_panel)
+    panel, geometry = first_vault_panel()
+    return program_task(panel, geometry, ProductionOptions(), CELL.read_text(), CELL.name, stock(), program_panel)
 
 
 @pytest.fixture(scope="module")

@@ -87,21 +87,13 @@ def test_a_planarity_within_the_margin_is_left_to_the_full_rule(plain_mm_panel):
 
 @pytest.fixture(scope="module")
 def vault_task():
-    from fabkit.generate.pleated import pleated_vault
-    from fabkit.panels.layout import layout_panels
+    from vault_panels import first_vault_panel
+
     from fabkit.panels.production import ProductionOptions, program_task, stock
-    from fabkit.panels.surface import GridSurface, grid_from_topology
-    from fabkit.panels.workflow import PanelsOptions, run_panels
     from sim.production import cup_refusal_before_refold, program_panel
 
-    mesh = pleated_vault(rows=2, length=0.5, radius=0.6, arc=np.radians(60.0), fold=np.radians(40.0), columns=8,
-                         rows_per_band=8)
-    index, _ = grid_from_topology(mesh)
-    layout = layout_panels(GridSurface(points=mesh.vertices[index], mesh=mesh, index=index), cols=2,
-                           columns_per_panel=4)
-    geo = run_panels(layout, PanelsOptions())
-    p = layout.panels[0]
-    return program_task(p, geo.results[p.id], ProductionOptions(), NARROW.read_text(), NARROW.name, stock(),
+    panel, geometry = first_vault_panel()
+    return program_task(panel, geometry, ProductionOptions(), NARROW.read_text(), NARROW.name, stock(),
                         program_panel, cup_refusal_before_refold)
 
 
