@@ -91,10 +91,11 @@ def plan_panel(cell, frames, *, grip_face: int | None = None, options=None, sour
     strip) are tried from the largest motion down (`grip_order`) and the first that plans is used,
     or with `accept(PlanResult) -> problem or None` (the checker: `sim.grip_search`) the first that
     plans and that `accept` passes; when `accept` refuses every face that plans, the first of them
-    is returned (its check will say why), with `refusal` its problem. `variants`: further `PlanOptions` tried for each face
-    after `options` (e.g. `robot.grip_choice.grip_variants`), in order; variants gripping another side
-    (`grip_side`) are tried after every face on the first side. Raises `InputError` for a grip face not
-    in the middle row, `PlanningError` when no face plans (the error of the face that got farthest).
+    is returned (its check will say why), with `refusal` its problem. `variants`: further
+    `PlanOptions` tried for each face after `options` (e.g. `robot.grip_choice.grip_variants`), in
+    order; variants gripping another side (`grip_side`) are tried after every face on the first
+    side. Raises `InputError` for a grip face not in the middle row, `PlanningError` when no face
+    plans (the error of the face that got farthest).
     `footprint(face) -> problem or None` (the cup on that face: `cup_order`): faces whose cup fits
     are tried first on each side, the others after them, never sent to `accept` and planned only
     until one plans when nothing else did (the program returned for the check to refuse, naming the

@@ -15,11 +15,10 @@ and command table in Python with the same register protocol (reference ur-rtde.m
 
 The RTDE watchdog (`rtde_set_watchdog`) stops the program when its register is not written for
 1 / f s. A controller reads its network in real time; this stand-in shares the client's CPU, and
-its network thread can fall behind on a loaded machine. So a watchdog that would fire while the
-bytes of the client that owns the register sit unread in the stand-in
-(`RTDEConnection.input_waiting`) waits for them, up to
-`MAX_READER_LAG_S` more: a client that went quiet is stopped on time, one the stand-in has not
-read yet is not stopped for the stand-in's lateness.
+its network thread can fall behind on a loaded machine. So a watchdog that would fire while bytes
+of the client that owns the register sit unread in the stand-in (`RTDEConnection.input_waiting`)
+waits for them, up to `MAX_READER_LAG_S` more: a client that went quiet is stopped on time, one
+the stand-in has not read yet is not stopped for the stand-in's lateness.
 """
 from __future__ import annotations
 
