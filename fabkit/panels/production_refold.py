@@ -222,18 +222,16 @@ def refold_and_program(task: dict) -> dict:
             continue
         prepared = _refold_solver(task, setup)
         refused = None if isinstance(prepared, str) else refusal_before_refold(task, setup, prepared[0])
+        text = None
         if isinstance(prepared, str):
-            summary, text, why = None, None, prepared
+            out.update(stage="refold", reason=prepared)
         elif refused:  # the program's check would refuse it whatever the refold: not refolded
-            summary, text, why = None, None, ""
-        else:
-            summary, text, why = _solve(task, *prepared)
-        out["refold"] = summary
-        if refused:
             out.update(stage="check", reason=refused)
-        elif text is None:
-            out.update(stage="refold", reason=why)
         else:
+            out["refold"], text, why = _solve(task, *prepared)
+            if text is None:
+                out.update(stage="refold", reason=why)
+        if text is not None:
             out["fold"] = text
             prog = task["program"](text, f"{name}_refold.fold", task["cell_toml"], task["cell_name"],
                                    task["thickness"], grip_face=setup.grip, sheet=task.get("sheet"),
