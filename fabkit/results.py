@@ -265,11 +265,20 @@ class Program:
         return (f"the check refuses every grip candidate that planned (tried {', '.join(faces)}); the program "
                 f"kept is grip {self.plan.grip_face}'s, refused for: {self.refused_by_check}")
 
+    def _refuse_urscript(self) -> None:
+        """A pendant program passes no check gate: none is written for a program the check refuses."""
+        if self.refused_by_check is not None:
+            from fabkit.errors import ToleranceError
+
+            raise ToleranceError(f"no URScript: {self.refusal_line}")
+
     def urscript(self, progress_register: int | None = None) -> str:
-        """The URScript program (`fabkit toolpath --script`) of this toolpath."""
+        """The URScript program (`fabkit toolpath --script`) of this toolpath (`ToleranceError` when
+        the check refused it: `refused_by_check`)."""
         from fabkit.toolpath_stage import check_progress_register
         from robot.urscript import PROGRESS_REGISTER, write_urscript
 
+        self._refuse_urscript()
         check_progress_register(progress_register)
         reg = PROGRESS_REGISTER if progress_register is None else progress_register
         return write_urscript(self.toolpath, program_name=f"fold_{self.cell.name}", progress_register=reg)
@@ -279,11 +288,12 @@ class Program:
         """{path: URScript program text} that `fabkit toolpath --script script_path` writes: the
         one program at `script_path` for one arm; for several arms one per arm
         (`robot.arms_urscript`, `handshake_timeout` s or its default), at `script_path` with
-        `_<arm>` before its suffix."""
+        `_<arm>` before its suffix (`ToleranceError` when the check refused the program)."""
         from fabkit.toolpath_stage import check_progress_register
         from robot.arms_urscript import arm_script_path, write_arm_urscripts
         from robot.urscript import PROGRESS_REGISTER
 
+        self._refuse_urscript()
         if not hasattr(self.toolpath, "arms"):
             if handshake_timeout is not None:
                 from fabkit.errors import InputError

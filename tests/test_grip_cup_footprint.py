@@ -74,6 +74,11 @@ def test_the_check_refuses_a_grip_whose_cup_does_not_fit(tmp_path, capsys):
         # the planner says so itself when it kept a program its check refuses
         assert (prog.refused_by_check is None) is fits, prog.refused_by_check
         assert fits or "leaves its plane by 0.9" in prog.refused_by_check
+        if not fits:  # the library writes no pendant program for it either
+            from fabkit.errors import ToleranceError
+
+            with pytest.raises(ToleranceError, match="no URScript: the check refuses every grip candidate"):
+                prog.urscript()
         check = fk.check(prog)
         rec = check.report.holds["cup_footprint"]
         assert rec["enforced"] is True and rec["cup_mm"] == pytest.approx(50.0 if fits else 70.0)

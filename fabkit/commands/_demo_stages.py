@@ -133,6 +133,8 @@ def toolpath(run: DemoRun, done: dict) -> Outcome:
     report = program.to_json()
     if not program.ok:
         return Outcome(program, report, "", tolerance)
+    if program.refused_by_check is not None:  # PATH.json is written for the check; no URScript
+        return Outcome(program, program.report(program.path_file), "", tolerance)
     script = None
     if len(_arms(run)) == 1:  # a two-arm program runs through the lockstep send, not one URScript
         script = run.path("program.script")

@@ -86,8 +86,9 @@ def _run_stage(stage: Stage, step, run, done: dict, reports: Path) -> None:
         stage.seconds = time.perf_counter() - t0
     result = outcome.result
     done[stage.name] = result
-    stage.status, stage.exit_code = ("pass", 0) if result.ok else ("fail", 1)
-    stage.message = "; ".join(result.problems)
+    refusal = getattr(result, "refusal_line", None)  # a program the planner's check refused
+    stage.status, stage.exit_code = ("pass", 0) if result.ok and refusal is None else ("fail", 1)
+    stage.message = "; ".join((*result.problems, *([refusal] if refusal else [])))
     stage.report, stage.measure, stage.tolerance = outcome.report, outcome.measure, outcome.tolerance
     write_json(reports / f"{stage.name}.json", outcome.report)
 
