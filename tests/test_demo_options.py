@@ -34,3 +34,23 @@ def test_the_material_gives_the_check_its_thickness():
     assert sheet_thickness(argparse.Namespace(material="none", thickness=None)) is None
     with pytest.raises(InputError, match="needs a --material"):
         sheet_thickness(argparse.Namespace(material="none", thickness="1mm"))
+
+
+def test_a_cell_whose_cup_fits_no_grip_face_fails_the_toolpath_stage(tmp_path):
+    """A 150 mm cup is wider than the sheet around every tri-fold grip face: the planner's check
+    refuses every candidate, the toolpath stage fails naming it (not "pass"), PATH.json is kept and
+    no URScript is written."""
+    import json
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "cells" / "ur5e_bench.toml").read_text()
+    assert "cup_radius = 0.025 " in text
+    cell = tmp_path / "wide_cup.toml"
+    cell.write_text(text.replace("cup_radius = 0.025 ", "cup_radius = 0.075 "))
+    proc = _demo(tmp_path, "--cell", str(cell))
+    assert proc.returncode == 1, proc.stderr
+    out = tmp_path / "out"
+    stages = {s["name"]: s for s in json.loads((out / "summary.json").read_text())["stages"]}
+    assert stages["toolpath"]["status"] == "fail" and stages["check"]["status"] == "skipped"
+    assert "the check refuses every grip candidate that planned" in stages["toolpath"]["message"]
+    assert (out / "path.json").exists() and not (out / "program.script").exists()
